@@ -1,0 +1,6 @@
+//! The Kestrel host simulator: decodes recorded frames, runs the library on them, compares it
+//! with an f32 reference implementation and writes standard formats.
+
+pub mod frame;
+
+pub use frame::Frame;

@@ -1,0 +1,32 @@
+//! Kestrel: allocation-free, fixed-point sparse optical flow for flight controllers.
+//!
+//! The data flows through the modules in this order:
+//!
+//! 1. [`frame`]: borrowed 8-bit grey frames ([`frame::ImageView`]).
+//! 2. [`pyramid`]: Gaussian pyramids in caller-owned storage.
+//! 3. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
+//!
+//! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
+//! can place it in a `static`.
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+#![cfg_attr(
+    not(test),
+    warn(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
+
+pub mod frame;
+pub mod lk;
+pub mod pyramid;
+pub mod q16;
+
+pub use frame::ImageView;
+pub use pyramid::Pyramid;
+pub use q16::{Point, Q16};

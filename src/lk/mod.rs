@@ -1,0 +1,500 @@
+//! Q16 pyramidal Lucas-Kanade (Bouguet's method).
+//!
+//! For each point, from the coarsest pyramid level to the finest: sample the window around the
+//! point in the previous frame, build and invert its gradient matrix once, then iterate: sample
+//! the next frame at the current estimate, compute the mismatch and step by `-G^-1 b`, until the
+//! step is below `epsilon`, the steps start to oscillate, or `max_iterations` is reached. The
+//! estimate, doubled, seeds the next finer level.
+//!
+//! Positions are Q16.16; window samples are grey x 32 with 14-bit bilinear weights; window sums
+//! are exact integers (see the widths in `template.rs`). The defaults are OpenCV's:
+//! 21 x 21 window, coarsest level 3, 30 iterations, epsilon 0.01 px, minimum eigenvalue 1e-4.
+//!
+//! ```
+//! use kestrel::frame::ImageView;
+//! use kestrel::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
+//! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+//! use kestrel::Point;
+//!
+//! // A smooth blob, and the same blob 1.5 px to the right.
+//! let blob = |cx: f32| -> [u8; 64 * 64] {
+//!     core::array::from_fn(|i| {
+//!         let (x, y) = ((i % 64) as f32 - cx, (i / 64) as f32 - 32.0);
+//!         (250.0 / (1.0 + (x * x + y * y) / 40.0)) as u8
+//!     })
+//! };
+//! let (a, b) = (blob(30.0), blob(31.5));
+//! let mut storage_a = [0u8; pyramid_storage_len(64, 64, 2)];
+//! let mut storage_b = [0u8; pyramid_storage_len(64, 64, 2)];
+//! let prev = Pyramid::build(ImageView::packed(&a, 64, 64).unwrap(), 2, &mut storage_a).unwrap();
+//! let next = Pyramid::build(ImageView::packed(&b, 64, 64).unwrap(), 2, &mut storage_b).unwrap();
+//!
+//! let lk = LucasKanade::new(LkParams { max_level: 2, ..LkParams::default() }).unwrap();
+//! let mut scratch = [0i16; scratch_len(21)];
+//! let track = lk.track_point(&prev, &next, Point::from_f32(27.0, 30.0), None, &mut scratch).unwrap();
+//! assert_eq!(track.status, TrackStatus::Tracked);
+//! let (x, y) = track.position.to_f32();
+//! assert!((x - 28.5).abs() < 0.05 && (y - 30.0).abs() < 0.05);
+//! ```
+
+mod template;
+mod wide;
+mod window;
+
+use crate::frame::ImageView;
+use crate::pyramid::Pyramid;
+use crate::q16::{Point, Q16};
+use template::{Step, Template, TemplateError};
+use window::WindowOrigin;
+
+/// The largest window side accepted.
+pub const MAX_WINDOW: usize = 63;
+
+/// `i16` scratch values one point needs for a `window` x `window` window.
+///
+/// The scratch holds the template patch with its derivative border, its two gradients and the
+/// resampled next-frame window; size it for the largest window the application uses:
+///
+/// ```
+/// use kestrel::lk::scratch_len;
+/// static mut SCRATCH: [i16; scratch_len(21)] = [0; scratch_len(21)];
+/// assert_eq!(scratch_len(21), 23 * 23 + 3 * 21 * 21);
+/// ```
+pub const fn scratch_len(window: usize) -> usize {
+    (window + 2) * (window + 2) + 3 * window * window
+}
+
+/// How brightness differences between the two frames are treated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Illumination {
+    /// Classic LK: the next window must match the previous one grey level for grey level.
+    Plain,
+    /// Fit a gain and a bias per window and iteration (`J = a I + b`, `a` in `[1/4, 4]`): robust
+    /// to auto-exposure and outdoor light changes. The residual is reported after the correction.
+    #[default]
+    GainBias,
+}
+
+/// Tracking parameters, with OpenCV's defaults.
+///
+/// ```
+/// use kestrel::lk::LkParams;
+/// let p = LkParams::default();
+/// assert_eq!((p.window, p.max_level, p.max_iterations), (21, 3, 30));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LkParams {
+    /// Window side in pixels: odd, 3..=63.
+    pub window: usize,
+    /// Coarsest pyramid level used (0 = no pyramid). Clamped to the pyramids' depth.
+    pub max_level: usize,
+    /// Iterations per level, at least 1.
+    pub max_iterations: u32,
+    /// Stop when a step is shorter than this, in pixels (>= 0).
+    pub epsilon: f32,
+    /// Minimum eigenvalue of the gradient matrix divided by the window area, in OpenCV's scale
+    /// (gradients of 1 grey level per pixel give 0.0009765625 = 1/1024); below it a point is
+    /// [`TrackStatus::LowTexture`].
+    pub min_eigen_threshold: f32,
+    /// Brightness model between the frames.
+    pub illumination: Illumination,
+}
+
+impl Default for LkParams {
+    fn default() -> Self {
+        Self {
+            window: 21,
+            max_level: 3,
+            max_iterations: 30,
+            epsilon: 0.01,
+            min_eigen_threshold: 1e-4,
+            illumination: Illumination::GainBias,
+        }
+    }
+}
+
+/// Why tracking could not run at all (per-point problems are a [`TrackStatus`] instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LkError {
+    /// The window is even, smaller than 3 or larger than [`MAX_WINDOW`].
+    BadWindow,
+    /// `max_level` is larger than [`crate::pyramid::MAX_LEVEL`].
+    BadLevel,
+    /// `max_iterations` is zero.
+    ZeroIterations,
+    /// `epsilon` is negative, NaN or infinite.
+    BadEpsilon,
+    /// `min_eigen_threshold` is negative, NaN or infinite.
+    BadEigenThreshold,
+    /// The scratch buffer is shorter than [`scratch_len`] for the window.
+    ScratchTooSmall,
+    /// The two pyramids were built from frames of different sizes.
+    FrameSizeMismatch,
+    /// Output or guess slices do not have one entry per point.
+    LengthMismatch,
+}
+
+impl core::fmt::Display for LkError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            LkError::BadWindow => "window must be odd and between 3 and 63",
+            LkError::BadLevel => "max level must be at most 7",
+            LkError::ZeroIterations => "max iterations must be at least 1",
+            LkError::BadEpsilon => "epsilon must be a finite number >= 0",
+            LkError::BadEigenThreshold => "min eigen threshold must be a finite number >= 0",
+            LkError::ScratchTooSmall => "scratch buffer is smaller than scratch_len(window)",
+            LkError::FrameSizeMismatch => "previous and next frames differ in size",
+            LkError::LengthMismatch => "points, guesses and outputs differ in length",
+        })
+    }
+}
+
+/// What happened to one point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TrackStatus {
+    /// Tracked: the position is the converged estimate inside the next frame.
+    Tracked,
+    /// The point, or its estimate in the next frame, is outside the frame.
+    #[default]
+    OutOfBounds,
+    /// The window has too little texture (gradient matrix eigenvalue below the threshold).
+    LowTexture,
+    /// The iterations at full resolution ran out while the steps were still above epsilon.
+    NotConverged,
+}
+
+/// The result for one point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PointTrack {
+    /// Estimated position in the next frame (the last estimate when not tracked).
+    pub position: Point,
+    /// Whether the position can be trusted, and why not.
+    pub status: TrackStatus,
+    /// Mean absolute intensity residual over the window, grey levels (after the gain and bias
+    /// correction in [`Illumination::GainBias`]); zero when the point was not tracked.
+    pub residual: Q16,
+}
+
+impl PointTrack {
+    /// True for [`TrackStatus::Tracked`].
+    ///
+    /// ```
+    /// use kestrel::lk::{PointTrack, TrackStatus};
+    /// assert!(!PointTrack::default().is_tracked());
+    /// ```
+    pub fn is_tracked(&self) -> bool {
+        self.status == TrackStatus::Tracked
+    }
+}
+
+/// One step shorter than this (0.01 px) cancelling the previous one is an oscillation.
+const OSCILLATION: i64 = 655;
+
+/// A validated Lucas-Kanade tracker configuration.
+#[derive(Debug, Clone, Copy)]
+pub struct LucasKanade {
+    params: LkParams,
+    /// `epsilon²` in Q32 (squared Q16 raw units).
+    epsilon_sq: i64,
+    /// Minimum eigenvalue of the integer gradient matrix.
+    min_eigen: u64,
+}
+
+impl LucasKanade {
+    /// Validates `params`.
+    ///
+    /// ```
+    /// use kestrel::lk::{LkError, LkParams, LucasKanade};
+    /// assert!(LucasKanade::new(LkParams::default()).is_ok());
+    /// let even = LkParams { window: 20, ..LkParams::default() };
+    /// assert_eq!(LucasKanade::new(even).unwrap_err(), LkError::BadWindow);
+    /// ```
+    pub fn new(params: LkParams) -> Result<Self, LkError> {
+        if params.window < 3 || params.window > MAX_WINDOW || params.window % 2 == 0 {
+            return Err(LkError::BadWindow);
+        }
+        if params.max_level > crate::pyramid::MAX_LEVEL {
+            return Err(LkError::BadLevel);
+        }
+        if params.max_iterations == 0 {
+            return Err(LkError::ZeroIterations);
+        }
+        if !params.epsilon.is_finite() || params.epsilon < 0.0 {
+            return Err(LkError::BadEpsilon);
+        }
+        let threshold = params.min_eigen_threshold;
+        if !threshold.is_finite() || threshold < 0.0 {
+            return Err(LkError::BadEigenThreshold);
+        }
+        let epsilon = (params.epsilon.min(1000.0) * 65536.0) as i64;
+        // OpenCV's threshold applies to λ_min(G) / (2^20 * area) with G in our integer scale.
+        let area = (params.window * params.window) as f32;
+        let min_eigen = (threshold * 1_048_576.0 * area).min(1e18) as u64;
+        Ok(Self {
+            params,
+            epsilon_sq: epsilon * epsilon,
+            min_eigen,
+        })
+    }
+
+    /// The parameters this tracker was built with.
+    ///
+    /// ```
+    /// use kestrel::lk::{LkParams, LucasKanade};
+    /// let lk = LucasKanade::new(LkParams::default()).unwrap();
+    /// assert_eq!(lk.params().window, 21);
+    /// ```
+    pub fn params(&self) -> &LkParams {
+        &self.params
+    }
+
+    /// Tracks one point from `prev` to `next`.
+    ///
+    /// `guess` is an optional estimate of the point's position in `next` (for example predicted
+    /// from a gyro); without one the search starts at the point itself. See the module example.
+    pub fn track_point(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        point: Point,
+        guess: Option<Point>,
+        scratch: &mut [i16],
+    ) -> Result<PointTrack, LkError> {
+        let win = self.params.window;
+        if scratch.len() < scratch_len(win) {
+            return Err(LkError::ScratchTooSmall);
+        }
+        if !prev.base().same_size(&next.base()) {
+            return Err(LkError::FrameSizeMismatch);
+        }
+        Ok(self.track(prev, next, point, guess, scratch))
+    }
+
+    /// Tracks every point of `points`, writing one result per point into `out`.
+    ///
+    /// `guesses`, when given, holds one predicted position per point.
+    ///
+    /// ```
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack, TrackStatus};
+    /// use kestrel::pyramid::Pyramid;
+    /// use kestrel::Point;
+    /// let flat = [90u8; 32 * 32];
+    /// let frame = ImageView::packed(&flat, 32, 32).unwrap();
+    /// let pyramid = Pyramid::build(frame, 0, &mut []).unwrap();
+    /// let lk = LucasKanade::new(LkParams { max_level: 0, ..LkParams::default() }).unwrap();
+    /// let points = [Point::from_f32(16.0, 16.0), Point::from_f32(-3.0, 5.0)];
+    /// let mut out = [PointTrack::default(); 2];
+    /// let mut scratch = [0i16; scratch_len(21)];
+    /// lk.track_points(&pyramid, &pyramid, &points, None, &mut out, &mut scratch).unwrap();
+    /// assert_eq!(out[0].status, TrackStatus::LowTexture);
+    /// assert_eq!(out[1].status, TrackStatus::OutOfBounds);
+    /// ```
+    pub fn track_points(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        points: &[Point],
+        guesses: Option<&[Point]>,
+        out: &mut [PointTrack],
+        scratch: &mut [i16],
+    ) -> Result<(), LkError> {
+        if out.len() != points.len() || guesses.is_some_and(|g| g.len() != points.len()) {
+            return Err(LkError::LengthMismatch);
+        }
+        if scratch.len() < scratch_len(self.params.window) {
+            return Err(LkError::ScratchTooSmall);
+        }
+        if !prev.base().same_size(&next.base()) {
+            return Err(LkError::FrameSizeMismatch);
+        }
+        for (i, (point, result)) in points.iter().zip(out.iter_mut()).enumerate() {
+            let guess = guesses.and_then(|g| g.get(i)).copied();
+            *result = self.track(prev, next, *point, guess, scratch);
+        }
+        Ok(())
+    }
+
+    /// The per-point driver over the pyramid levels; arguments are already validated.
+    fn track(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        point: Point,
+        guess: Option<Point>,
+        scratch: &mut [i16],
+    ) -> PointTrack {
+        let base = prev.base();
+        let start = (point.x.to_bits(), point.y.to_bits());
+        let lost = |status, position| PointTrack {
+            position,
+            status,
+            residual: Q16::ZERO,
+        };
+        if !inside(&base, start) {
+            return lost(TrackStatus::OutOfBounds, point);
+        }
+        let top = self
+            .params
+            .max_level
+            .min(prev.max_level())
+            .min(next.max_level());
+        let target = guess.unwrap_or(point);
+        // The estimate lives in the current level's coordinates, Q16 raw bits.
+        let mut estimate = (target.x.to_bits() >> top, target.y.to_bits() >> top);
+        let mut outcome = LevelOutcome::Converged;
+        let mut residual = 0;
+        for level in (0..=top).rev() {
+            let (Some(prev_level), Some(next_level)) = (prev.level(level), next.level(level)) else {
+                continue;
+            };
+            let centre = (start.0 >> level, start.1 >> level);
+            let scale = Scale { centre, finest: level == 0 };
+            (outcome, residual) = self.refine(&prev_level, &next_level, scale, &mut estimate, scratch);
+            if level > 0 {
+                estimate = (
+                    estimate.0.saturating_mul(2),
+                    estimate.1.saturating_mul(2),
+                );
+            }
+        }
+        let position = Point::from_bits(estimate.0, estimate.1);
+        let status = match outcome {
+            LevelOutcome::LowTexture => TrackStatus::LowTexture,
+            LevelOutcome::LeftFrame => TrackStatus::OutOfBounds,
+            LevelOutcome::IterationsExhausted => TrackStatus::NotConverged,
+            LevelOutcome::Converged if !inside(&next.base(), estimate) => TrackStatus::OutOfBounds,
+            LevelOutcome::Converged => TrackStatus::Tracked,
+        };
+        if status != TrackStatus::Tracked {
+            return lost(status, position);
+        }
+        PointTrack {
+            position,
+            status,
+            residual: Q16::from_bits(residual),
+        }
+    }
+
+    /// Iterates LK at one level, moving `estimate`; at the finest level also returns the mean
+    /// absolute residual at the final estimate (Q16 grey levels) when it converged.
+    fn refine(
+        &self,
+        prev: &ImageView<'_>,
+        next: &ImageView<'_>,
+        scale: Scale,
+        estimate: &mut (i32, i32),
+        scratch: &mut [i16],
+    ) -> (LevelOutcome, i32) {
+        let win = self.params.window;
+        let Some((template, j)) = self.template(prev, scale.centre, scratch) else {
+            return (LevelOutcome::LowTexture, 0);
+        };
+        let outcome = self.iterate(&template, next, estimate, j);
+        if outcome != LevelOutcome::Converged || !scale.finest {
+            return (outcome, 0);
+        }
+        let origin = WindowOrigin::new(estimate.0, estimate.1, win / 2);
+        window::sample(next, &origin, win, j);
+        (outcome, template.residual(j))
+    }
+
+    /// The LK iterations of one level.
+    fn iterate(
+        &self,
+        template: &Template<'_>,
+        next: &ImageView<'_>,
+        estimate: &mut (i32, i32),
+        j: &mut [i16],
+    ) -> LevelOutcome {
+        let win = self.params.window;
+        let mut previous: Option<Step> = None;
+        for _ in 0..self.params.max_iterations {
+            let origin = WindowOrigin::new(estimate.0, estimate.1, win / 2);
+            if origin.misses(next, win) {
+                return LevelOutcome::LeftFrame;
+            }
+            window::sample(next, &origin, win, j);
+            let step = template.step(j);
+            estimate.0 = estimate.0.saturating_add(step.dx);
+            estimate.1 = estimate.1.saturating_add(step.dy);
+            let (sx, sy) = (i64::from(step.dx), i64::from(step.dy));
+            if sx * sx + sy * sy <= self.epsilon_sq {
+                return LevelOutcome::Converged;
+            }
+            if let Some(p) = previous {
+                // Two steps that cancel: the estimate bounces around the optimum; settle midway.
+                if (sx + i64::from(p.dx)).abs() < OSCILLATION
+                    && (sy + i64::from(p.dy)).abs() < OSCILLATION
+                {
+                    estimate.0 = estimate.0.saturating_sub(step.dx / 2);
+                    estimate.1 = estimate.1.saturating_sub(step.dy / 2);
+                    return LevelOutcome::Converged;
+                }
+            }
+            previous = Some(step);
+        }
+        LevelOutcome::IterationsExhausted
+    }
+
+    /// Samples the template around `centre` and prepares its solve; the rest of the scratch is
+    /// returned for the next-frame window. `None` when the window lacks texture.
+    fn template<'s>(
+        &self,
+        prev: &ImageView<'_>,
+        centre: (i32, i32),
+        scratch: &'s mut [i16],
+    ) -> Option<(Template<'s>, &'s mut [i16])> {
+        let win = self.params.window;
+        let side = win + 2;
+        let (patch, rest) = scratch.split_at_mut(side * side);
+        let (dx, rest) = rest.split_at_mut(win * win);
+        let (dy, rest) = rest.split_at_mut(win * win);
+        let j = rest.get_mut(..win * win)?;
+        let origin = WindowOrigin::new(centre.0, centre.1, win / 2 + 1);
+        window::sample(prev, &origin, side, patch);
+        window::scharr(patch, side, dx, dy);
+        let template = Template::new(
+            patch,
+            dx,
+            dy,
+            win,
+            self.params.illumination,
+            self.min_eigen,
+        );
+        match template {
+            Ok(t) => Some((t, j)),
+            Err(TemplateError::LowTexture) => None,
+        }
+    }
+}
+
+/// The point's position at one pyramid level.
+#[derive(Debug, Clone, Copy)]
+struct Scale {
+    /// The point in the previous frame, this level's coordinates, Q16 raw bits.
+    centre: (i32, i32),
+    /// True at full resolution.
+    finest: bool,
+}
+
+/// How the iterations at one level ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LevelOutcome {
+    Converged,
+    LowTexture,
+    LeftFrame,
+    IterationsExhausted,
+}
+
+/// True when the Q16 position lies within the frame's pixel centres.
+fn inside(frame: &ImageView<'_>, (x, y): (i32, i32)) -> bool {
+    let max_x = ((frame.width() - 1) as i64) << 16;
+    let max_y = ((frame.height() - 1) as i64) << 16;
+    (0..=max_x).contains(&i64::from(x)) && (0..=max_y).contains(&i64::from(y))
+}

@@ -1,0 +1,308 @@
+//! The template: one point's window in the previous frame at one pyramid level, with everything
+//! that stays fixed while LK iterates (Bouguet's method: the gradient matrix is built and inverted
+//! once per point and level; each iteration only resamples the next frame).
+//!
+//! # Illumination model
+//!
+//! With [`Illumination::GainBias`] the next window is modelled as `J = a * I + b` plus the motion.
+//! Each iteration fits the gain `a` and bias `b` to the current window by least squares, which
+//! only needs four sums over `J` (`ΣJ`, `ΣJI`, `ΣJIx`, `ΣJIy`), and LK then drives the
+//! illumination-corrected residual `J - a I - b` to zero. A brightness change between frames
+//! (auto-exposure, a cloud) therefore moves no point.
+//!
+//! # Integer widths
+//!
+//! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
+//! `8160^2 = 66_585_600`, so one row of a 63-px window sums to at most `4_194_892_800`: below
+//! `u32::MAX` for `I*J` (both non-negative) and, for the signed products (`|I*Ix| <= 33_292_800`,
+//! row `<= 2_097_446_400`), below `i32::MAX`. Row sums are exact in 32 bits and windows add rows in
+//! 64 bits (`<= 2.7e11`). Products of window sums go through `i128`.
+
+use super::wide::Reciprocal;
+use super::window::INTENSITY_BITS;
+use super::Illumination;
+
+/// The gain estimate is clamped to `[1/4, 4]` (Q16): no lighting change between two frames of a
+/// flight is larger, and the clamp keeps a mismatched window from producing a wild step.
+const GAIN_MIN: i64 = 1 << 14;
+const GAIN_MAX: i64 = 1 << 18;
+const ONE: i64 = 1 << 16;
+
+/// Window sums of the template that every iteration needs.
+#[derive(Debug, Clone, Copy, Default)]
+struct TemplateSums {
+    /// Gradient matrix `[gxx gxy; gxy gyy]`.
+    gxx: i64,
+    gxy: i64,
+    gyy: i64,
+    /// `ΣI`, `ΣI²`, `ΣIx`, `ΣIy`, `ΣI·Ix`, `ΣI·Iy`.
+    si: i64,
+    sii: i64,
+    sx: i64,
+    sy: i64,
+    six: i64,
+    siy: i64,
+}
+
+/// Window sums that involve the next frame `J`.
+#[derive(Debug, Clone, Copy, Default)]
+struct MatchSums {
+    sj: i64,
+    sji: i64,
+    sjx: i64,
+    sjy: i64,
+}
+
+/// Why a template cannot be used at this level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum TemplateError {
+    /// The smaller eigenvalue of the gradient matrix is below the threshold.
+    LowTexture,
+}
+
+/// One LK update: the Q16 step to add to the position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Step {
+    pub dx: i32,
+    pub dy: i32,
+}
+
+/// A point's window at one level with its precomputed solve.
+pub(crate) struct Template<'s> {
+    side: usize,
+    /// The `(side + 2)^2` patch; the template itself is its inner `side^2` square.
+    patch: &'s [i16],
+    dx: &'s [i16],
+    dy: &'s [i16],
+    sums: TemplateSums,
+    illumination: Illumination,
+    /// `1 / det(G)` (plain) or `1 / (n det(G))` (gain and bias).
+    solve: Reciprocal,
+    /// `1 / (n ΣI² - (ΣI)²)`, for the gain fit; `None` when the window is flat.
+    variance: Option<Reciprocal>,
+}
+
+impl<'s> Template<'s> {
+    /// Builds the template from a sampled patch and its derivatives.
+    ///
+    /// `min_eigen` is the smallest acceptable eigenvalue of the gradient matrix in its integer
+    /// scale (see [`super::LucasKanade`]).
+    pub(crate) fn new(
+        patch: &'s [i16],
+        dx: &'s [i16],
+        dy: &'s [i16],
+        side: usize,
+        illumination: Illumination,
+        min_eigen: u64,
+    ) -> Result<Self, TemplateError> {
+        let sums = template_sums(patch, dx, dy, side);
+        if !min_eigenvalue_at_least(&sums, min_eigen) {
+            return Err(TemplateError::LowTexture);
+        }
+        let det = sums.gxx as i128 * sums.gyy as i128 - sums.gxy as i128 * sums.gxy as i128;
+        let n = (side * side) as i128;
+        let scaled_det = match illumination {
+            Illumination::Plain => det,
+            Illumination::GainBias => det * n,
+        };
+        let solve = u128::try_from(scaled_det)
+            .ok()
+            .and_then(Reciprocal::of)
+            .ok_or(TemplateError::LowTexture)?;
+        let variance_n = n * sums.sii as i128 - sums.si as i128 * sums.si as i128;
+        let variance = u128::try_from(variance_n).ok().and_then(Reciprocal::of);
+        Ok(Self {
+            side,
+            patch,
+            dx,
+            dy,
+            sums,
+            illumination,
+            solve,
+            variance,
+        })
+    }
+
+    /// The template's rows: intensities, x and y gradients.
+    fn rows(&self) -> impl Iterator<Item = (&'s [i16], &'s [i16], &'s [i16])> + 's {
+        let side = self.side;
+        let intensities = self
+            .patch
+            .chunks_exact(side + 2)
+            .skip(1)
+            .map(move |r| r.get(1..side + 1).unwrap_or(&[]));
+        intensities
+            .zip(self.dx.chunks_exact(side))
+            .zip(self.dy.chunks_exact(side))
+            .map(|((i, x), y)| (i, x, y))
+            .take(side)
+    }
+
+    fn n(&self) -> i128 {
+        (self.side * self.side) as i128
+    }
+
+    /// One LK step for the next-frame window `j` sampled at the current estimate.
+    pub(crate) fn step(&self, j: &[i16]) -> Step {
+        let m = self.match_sums(j);
+        let s = &self.sums;
+        // b = Σ residual * ∇I, scaled by n in gain-bias mode.
+        let (bx, by) = match self.illumination {
+            Illumination::Plain => ((m.sjx - s.six) as i128, (m.sjy - s.siy) as i128),
+            Illumination::GainBias => {
+                let n = self.n();
+                let gain = self.gain(&m) as i128;
+                let centred = |sjg: i64, sg: i64, sig: i64| {
+                    let jg = n * sjg as i128 - m.sj as i128 * sg as i128;
+                    let ig = n * sig as i128 - s.si as i128 * sg as i128;
+                    jg - ((gain * ig) >> 16)
+                };
+                (centred(m.sjx, s.sx, s.six), centred(m.sjy, s.sy, s.siy))
+            }
+        };
+        // delta = -G^-1 b, with G^-1 = adj(G) / det(G).
+        let ux = s.gyy as i128 * bx - s.gxy as i128 * by;
+        let uy = s.gxx as i128 * by - s.gxy as i128 * bx;
+        let to_step = |u: i128| {
+            let v = -self.solve.scale(u, 16);
+            v.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
+        };
+        Step {
+            dx: to_step(ux),
+            dy: to_step(uy),
+        }
+    }
+
+    /// Least-squares gain of `J ~ a I + b` over the window, Q16, clamped; 1 in plain mode.
+    fn gain(&self, m: &MatchSums) -> i64 {
+        let Some(variance) = self.variance else {
+            return ONE;
+        };
+        if self.illumination == Illumination::Plain {
+            return ONE;
+        }
+        let s = &self.sums;
+        let covariance = self.n() * m.sji as i128 - m.sj as i128 * s.si as i128;
+        variance.scale(covariance, 16).clamp(GAIN_MIN, GAIN_MAX)
+    }
+
+    /// Mean absolute residual over the window in grey levels (Q16 raw bits), after the gain and
+    /// bias correction in gain-bias mode.
+    pub(crate) fn residual(&self, j: &[i16]) -> i32 {
+        let m = self.match_sums(j);
+        let gain = self.gain(&m);
+        let n = self.n() as i64;
+        // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
+        let bias = match self.illumination {
+            Illumination::Plain => 0,
+            Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
+        };
+        let mut total: i64 = 0;
+        for ((i_row, _, _), j_row) in self.rows().zip(j.chunks_exact(self.side)) {
+            for (&i, &jv) in i_row.iter().zip(j_row) {
+                let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
+                total += r.abs();
+            }
+        }
+        // Drop the 5 intensity bits: grey levels, Q16.
+        let mean = total / (n << INTENSITY_BITS);
+        mean.min(i32::MAX as i64) as i32
+    }
+
+    fn match_sums(&self, j: &[i16]) -> MatchSums {
+        let mut m = MatchSums::default();
+        let gain_bias = self.illumination == Illumination::GainBias;
+        for ((i_row, x_row, y_row), j_row) in self.rows().zip(j.chunks_exact(self.side)) {
+            // Exact in 32 bits for windows up to 63 px (module docs).
+            let (mut sjx, mut sjy) = (0i32, 0i32);
+            for ((&jv, &gx), &gy) in j_row.iter().zip(x_row).zip(y_row) {
+                sjx += i32::from(jv) * i32::from(gx);
+                sjy += i32::from(jv) * i32::from(gy);
+            }
+            m.sjx += i64::from(sjx);
+            m.sjy += i64::from(sjy);
+            if gain_bias {
+                let (mut sj, mut sji) = (0i32, 0u32);
+                for (&jv, &i) in j_row.iter().zip(i_row) {
+                    sj += i32::from(jv);
+                    sji += (i32::from(jv) * i32::from(i)) as u32;
+                }
+                m.sj += i64::from(sj);
+                m.sji += i64::from(sji);
+            }
+        }
+        m
+    }
+}
+
+fn template_sums(patch: &[i16], dx: &[i16], dy: &[i16], side: usize) -> TemplateSums {
+    let mut s = TemplateSums::default();
+    let intensities = patch
+        .chunks_exact(side + 2)
+        .skip(1)
+        .map(|r| r.get(1..side + 1).unwrap_or(&[]));
+    let rows = intensities.zip(dx.chunks_exact(side)).zip(dy.chunks_exact(side));
+    for ((i_row, x_row), y_row) in rows.take(side) {
+        // Row sums are exact in 32 bits up to 63 px (module docs).
+        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
+        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) = (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
+        for ((&i, &gx), &gy) in i_row.iter().zip(x_row).zip(y_row) {
+            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
+            gxx += gx * gx;
+            gxy += gx * gy;
+            gyy += gy * gy;
+            si += i;
+            sii += (i * i) as u32;
+            sx += gx;
+            sy += gy;
+            six += i * gx;
+            siy += i * gy;
+        }
+        s.gxx += i64::from(gxx);
+        s.gxy += i64::from(gxy);
+        s.gyy += i64::from(gyy);
+        s.si += i64::from(si);
+        s.sii += i64::from(sii);
+        s.sx += i64::from(sx);
+        s.sy += i64::from(sy);
+        s.six += i64::from(six);
+        s.siy += i64::from(siy);
+    }
+    s
+}
+
+/// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and
+/// `(gxx - tau)(gyy - tau) >= gxy²`.
+fn min_eigenvalue_at_least(s: &TemplateSums, tau: u64) -> bool {
+    let tau = tau as i128;
+    let (a, b, c) = (s.gxx as i128, s.gxy as i128, s.gyy as i128);
+    let det = a * c - b * b;
+    a >= tau && c >= tau && (a - tau) * (c - tau) >= b * b && det > 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eigenvalue_test_matches_closed_form() {
+        let cases = [(100, 0, 100), (100, 99, 100), (50, -20, 400), (1000, 10, 10)];
+        for (a, b, c) in cases {
+            let s = TemplateSums {
+                gxx: a,
+                gxy: b,
+                gyy: c,
+                ..Default::default()
+            };
+            let (a, b, c) = (a as f64, b as f64, c as f64);
+            let lambda = (a + c - ((a - c) * (a - c) + 4.0 * b * b).sqrt()) / 2.0;
+            for tau in [0u64, 1, 5, 9, 10, 11, 30, 49, 50, 51, 99, 100, 101] {
+                assert_eq!(
+                    min_eigenvalue_at_least(&s, tau),
+                    lambda >= tau as f64 && a * c - b * b > 0.0,
+                    "G = [{a} {b}; {b} {c}], tau {tau}"
+                );
+            }
+        }
+    }
+}

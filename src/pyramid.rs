@@ -1,0 +1,345 @@
+//! Gaussian image pyramids in caller-owned storage.
+//!
+//! Level 0 is the caller's frame itself (a camera DMA buffer is never copied). Each coarser level
+//! is the previous one blurred with the 5x5 binomial kernel `[1 4 6 4 1]^T [1 4 6 4 1] / 256`,
+//! rounded, and subsampled to `(w + 1) / 2` x `(h + 1) / 2`, with mirrored borders
+//! (`dcb|abcd|cba`): the same filter, size rule and border as OpenCV's `pyrDown`, so tracking
+//! results are comparable. Firmware sizes the storage with [`pyramid_storage_len`] at compile time.
+
+use crate::frame::{ImageError, ImageView};
+
+/// The deepest pyramid Kestrel builds: levels `0..=MAX_LEVEL`.
+pub const MAX_LEVEL: usize = 7;
+
+/// Why a pyramid could not be built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PyramidError {
+    /// More levels were requested than [`MAX_LEVEL`].
+    TooManyLevels,
+    /// The storage is shorter than [`pyramid_storage_len`] for this frame and level count.
+    StorageTooSmall,
+    /// A level view could not be formed (never expected for a valid level 0).
+    Image(ImageError),
+}
+
+impl core::fmt::Display for PyramidError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            PyramidError::TooManyLevels => f.write_str("more than 7 pyramid levels requested"),
+            PyramidError::StorageTooSmall => f.write_str("pyramid storage is too small"),
+            PyramidError::Image(e) => write!(f, "pyramid level: {e}"),
+        }
+    }
+}
+
+/// Width or height of pyramid level `level` for a level-0 size `size`: halved, rounded up.
+///
+/// ```
+/// use kestrel::pyramid::level_size;
+/// assert_eq!(level_size(321, 0), 321);
+/// assert_eq!(level_size(321, 1), 161);
+/// assert_eq!(level_size(321, 3), 41);
+/// assert_eq!(level_size(1, 5), 1);
+/// ```
+pub const fn level_size(size: usize, level: usize) -> usize {
+    let mut s = size;
+    let mut l = 0;
+    while l < level {
+        s = s.div_ceil(2);
+        l += 1;
+    }
+    s
+}
+
+/// Bytes of storage for levels `1..=max_level` of a pyramid over a `width` x `height` frame.
+///
+/// Level 0 is the frame itself and needs no storage. Use it to declare static buffers:
+///
+/// ```
+/// use kestrel::pyramid::pyramid_storage_len;
+/// const LEN: usize = pyramid_storage_len(160, 120, 3);
+/// static mut STORAGE: [u8; LEN] = [0; LEN];
+/// assert_eq!(LEN, 80 * 60 + 40 * 30 + 20 * 15);
+/// ```
+pub const fn pyramid_storage_len(width: usize, height: usize, max_level: usize) -> usize {
+    let mut total = 0;
+    let mut l = 1;
+    while l <= max_level {
+        total += level_size(width, l) * level_size(height, l);
+        l += 1;
+    }
+    total
+}
+
+/// An image pyramid: level 0 borrowed from the caller's frame, coarser levels in caller storage.
+///
+/// ```
+/// use kestrel::frame::ImageView;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// let pixels = [128u8; 64 * 48];
+/// let frame = ImageView::packed(&pixels, 64, 48).unwrap();
+/// let mut storage = [0u8; pyramid_storage_len(64, 48, 3)];
+/// let pyramid = Pyramid::build(frame, 3, &mut storage).unwrap();
+/// assert_eq!(pyramid.max_level(), 3);
+/// assert_eq!(pyramid.level(3).unwrap().width(), 8);
+/// assert_eq!(pyramid.level(2).unwrap().get(0, 0), Some(128));
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Pyramid<'a> {
+    base: ImageView<'a>,
+    levels: [Option<ImageView<'a>>; MAX_LEVEL + 1],
+    max_level: usize,
+}
+
+impl<'a> Pyramid<'a> {
+    /// Builds levels `1..=max_level` of `frame` into `storage`.
+    ///
+    /// `storage` must hold at least [`pyramid_storage_len`]`(width, height, max_level)` bytes.
+    pub fn build(
+        frame: ImageView<'a>,
+        max_level: usize,
+        storage: &'a mut [u8],
+    ) -> Result<Self, PyramidError> {
+        Self::check(&frame, max_level, storage.len())?;
+        let mut levels = [None; MAX_LEVEL + 1];
+        levels[0] = Some(frame);
+        let mut finer = frame;
+        let mut rest = storage;
+        for slot in levels.iter_mut().take(max_level + 1).skip(1) {
+            let (w, h) = (finer.width().div_ceil(2), finer.height().div_ceil(2));
+            let (buf, tail) = core::mem::take(&mut rest).split_at_mut(w * h);
+            rest = tail;
+            downsample(&finer, buf, w, h);
+            let coarser = ImageView::packed(buf, w, h).map_err(PyramidError::Image)?;
+            *slot = Some(coarser);
+            finer = coarser;
+        }
+        Ok(Self {
+            base: frame,
+            levels,
+            max_level,
+        })
+    }
+
+    /// Views a pyramid whose levels `1..=max_level` were already built into `storage` by
+    /// [`Pyramid::build`] for a frame of the same size (a tracker keeps the previous frame's
+    /// pyramid this way without rebuilding it).
+    ///
+    /// ```
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+    /// let pixels = [9u8; 20 * 10];
+    /// let frame = ImageView::packed(&pixels, 20, 10).unwrap();
+    /// let mut storage = [0u8; pyramid_storage_len(20, 10, 2)];
+    /// Pyramid::build(frame, 2, &mut storage).unwrap();
+    /// let again = Pyramid::from_storage(frame, 2, &storage).unwrap();
+    /// assert_eq!(again.level(2).unwrap().get(4, 2), Some(9));
+    /// ```
+    pub fn from_storage(
+        frame: ImageView<'a>,
+        max_level: usize,
+        storage: &'a [u8],
+    ) -> Result<Self, PyramidError> {
+        Self::check(&frame, max_level, storage.len())?;
+        let mut levels = [None; MAX_LEVEL + 1];
+        levels[0] = Some(frame);
+        let mut rest = storage;
+        for (l, slot) in levels.iter_mut().enumerate().take(max_level + 1).skip(1) {
+            let (w, h) = (level_size(frame.width(), l), level_size(frame.height(), l));
+            let (buf, tail) = rest.split_at(w * h);
+            rest = tail;
+            *slot = Some(ImageView::packed(buf, w, h).map_err(PyramidError::Image)?);
+        }
+        Ok(Self {
+            base: frame,
+            levels,
+            max_level,
+        })
+    }
+
+    fn check(frame: &ImageView<'_>, max_level: usize, storage: usize) -> Result<(), PyramidError> {
+        if max_level > MAX_LEVEL {
+            return Err(PyramidError::TooManyLevels);
+        }
+        if storage < pyramid_storage_len(frame.width(), frame.height(), max_level) {
+            return Err(PyramidError::StorageTooSmall);
+        }
+        Ok(())
+    }
+
+    /// Index of the coarsest level.
+    ///
+    /// ```
+    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::pyramid::Pyramid;
+    /// let pixels = [0u8; 4];
+    /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();
+    /// assert_eq!(p.max_level(), 0);
+    /// ```
+    pub const fn max_level(&self) -> usize {
+        self.max_level
+    }
+
+    /// Level `level` (0 = full resolution), or `None` beyond [`Pyramid::max_level`].
+    ///
+    /// ```
+    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::pyramid::Pyramid;
+    /// let pixels = [0u8; 4];
+    /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();
+    /// assert!(p.level(0).is_some());
+    /// assert!(p.level(1).is_none());
+    /// ```
+    pub fn level(&self, level: usize) -> Option<ImageView<'a>> {
+        self.levels.get(level).copied().flatten()
+    }
+
+    /// The full-resolution frame.
+    ///
+    /// ```
+    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::pyramid::Pyramid;
+    /// let pixels = [3u8; 4];
+    /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();
+    /// assert_eq!(p.base().get(1, 1), Some(3));
+    /// ```
+    pub fn base(&self) -> ImageView<'a> {
+        self.base
+    }
+}
+
+/// Mirrors an index into `0..n` the way OpenCV's `BORDER_REFLECT_101` does (`dcb|abcd|cba`).
+#[inline]
+pub(crate) fn reflect101(i: isize, n: usize) -> usize {
+    let n = n as isize;
+    if n == 1 {
+        return 0;
+    }
+    let mut i = i;
+    // Two reflections suffice for the 2-pixel reach of the 5-tap kernel, even on 2-pixel images.
+    while i < 0 || i >= n {
+        i = if i < 0 { -i } else { 2 * n - 2 - i };
+    }
+    i as usize
+}
+
+/// Output columns filtered per pass; bounds the stack used for one vertically filtered strip.
+const STRIP: usize = 64;
+
+/// Blurs `src` with the 5x5 binomial kernel and writes every second pixel into `dst` (`w` x `h`).
+fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
+    let (sw, sh) = (src.width(), src.height());
+    // Vertical sums for the source columns of one strip: at most 16 * 255, fits u16.
+    let mut column_sums = [0u16; 2 * STRIP + 3];
+    for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
+        let rows: [&[u8]; 5] =
+            core::array::from_fn(|k| src.row(reflect101(2 * y as isize - 2 + k as isize, sh)));
+        let mut x0 = 0;
+        while x0 < w {
+            let x1 = (x0 + STRIP).min(w);
+            // Source columns 2*x0-2 ..= 2*(x1-1)+2.
+            let first = 2 * x0 as isize - 2;
+            let count = 2 * (x1 - x0) + 3;
+            for (i, sum) in column_sums.iter_mut().take(count).enumerate() {
+                let sx = reflect101(first + i as isize, sw);
+                let px = |k: usize| u16::from(rows[k].get(sx).copied().unwrap_or(0));
+                *sum = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
+            }
+            for (x, out) in out_row.iter_mut().enumerate().take(x1).skip(x0) {
+                let c = &column_sums[2 * (x - x0)..2 * (x - x0) + 5];
+                let total = u32::from(c[0])
+                    + 4 * u32::from(c[1])
+                    + 6 * u32::from(c[2])
+                    + 4 * u32::from(c[3])
+                    + u32::from(c[4]);
+                *out = ((total + 128) >> 8) as u8;
+            }
+            x0 = x1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reflect101_mirrors_without_repeating_the_edge() {
+        assert_eq!(reflect101(-1, 5), 1);
+        assert_eq!(reflect101(-2, 5), 2);
+        assert_eq!(reflect101(5, 5), 3);
+        assert_eq!(reflect101(6, 5), 2);
+        assert_eq!(reflect101(-2, 2), 0);
+        assert_eq!(reflect101(3, 2), 1);
+        assert_eq!(reflect101(-3, 1), 0);
+    }
+
+    #[test]
+    fn constant_image_stays_constant() {
+        let pixels = [200u8; 33 * 17];
+        let frame = ImageView::packed(&pixels, 33, 17).unwrap();
+        let mut storage = [0u8; pyramid_storage_len(33, 17, 4)];
+        let p = Pyramid::build(frame, 4, &mut storage).unwrap();
+        for l in 1..=4 {
+            let v = p.level(l).unwrap();
+            assert_eq!(v.width(), level_size(33, l));
+            for y in 0..v.height() {
+                assert!(v.row(y).iter().all(|&px| px == 200));
+            }
+        }
+    }
+
+    #[test]
+    fn matches_direct_5x5_convolution() {
+        // A deterministic pattern wide enough to span several strips.
+        let (w, h) = (203usize, 9usize);
+        let mut pixels = [0u8; 203 * 9];
+        for (i, p) in pixels.iter_mut().enumerate() {
+            *p = ((i * 7919 + (i / 203) * 31) % 256) as u8;
+        }
+        let frame = ImageView::packed(&pixels, w, h).unwrap();
+        let mut storage = [0u8; pyramid_storage_len(203, 9, 1)];
+        let p = Pyramid::build(frame, 1, &mut storage).unwrap();
+        let level = p.level(1).unwrap();
+        let k = [1u32, 4, 6, 4, 1];
+        for y in 0..level.height() {
+            for x in 0..level.width() {
+                let mut sum = 0u32;
+                for (j, kj) in k.iter().enumerate() {
+                    for (i, ki) in k.iter().enumerate() {
+                        let sy = reflect101(2 * y as isize - 2 + j as isize, h);
+                        let sx = reflect101(2 * x as isize - 2 + i as isize, w);
+                        sum += kj * ki * u32::from(frame.get(sx, sy).unwrap());
+                    }
+                }
+                assert_eq!(level.get(x, y).unwrap(), ((sum + 128) >> 8) as u8);
+            }
+        }
+    }
+
+    #[test]
+    fn storage_and_level_errors() {
+        let pixels = [0u8; 16];
+        let frame = ImageView::packed(&pixels, 4, 4).unwrap();
+        let mut small = [0u8; 3];
+        assert_eq!(
+            Pyramid::build(frame, 1, &mut small).unwrap_err(),
+            PyramidError::StorageTooSmall
+        );
+        let mut big = [0u8; 64];
+        assert_eq!(
+            Pyramid::build(frame, 8, &mut big).unwrap_err(),
+            PyramidError::TooManyLevels
+        );
+    }
+
+    #[test]
+    fn one_pixel_frame_builds_every_level() {
+        let pixels = [77u8];
+        let frame = ImageView::packed(&pixels, 1, 1).unwrap();
+        let mut storage = [0u8; pyramid_storage_len(1, 1, 7)];
+        let p = Pyramid::build(frame, 7, &mut storage).unwrap();
+        assert_eq!(p.level(7).unwrap().get(0, 0), Some(77));
+    }
+}

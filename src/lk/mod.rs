@@ -350,17 +350,19 @@ impl LucasKanade {
         let mut outcome = LevelOutcome::Converged;
         let mut residual = 0;
         for level in (0..=top).rev() {
-            let (Some(prev_level), Some(next_level)) = (prev.level(level), next.level(level)) else {
+            let (Some(prev_level), Some(next_level)) = (prev.level(level), next.level(level))
+            else {
                 continue;
             };
             let centre = (start.0 >> level, start.1 >> level);
-            let scale = Scale { centre, finest: level == 0 };
-            (outcome, residual) = self.refine(&prev_level, &next_level, scale, &mut estimate, scratch);
+            let scale = Scale {
+                centre,
+                finest: level == 0,
+            };
+            (outcome, residual) =
+                self.refine(&prev_level, &next_level, scale, &mut estimate, scratch);
             if level > 0 {
-                estimate = (
-                    estimate.0.saturating_mul(2),
-                    estimate.1.saturating_mul(2),
-                );
+                estimate = (estimate.0.saturating_mul(2), estimate.1.saturating_mul(2));
             }
         }
         let position = Point::from_bits(estimate.0, estimate.1);
@@ -459,14 +461,10 @@ impl LucasKanade {
         let origin = WindowOrigin::new(centre.0, centre.1, win / 2 + 1);
         window::sample(prev, &origin, side, patch);
         window::scharr(patch, side, dx, dy);
-        let template = Template::new(
-            patch,
-            dx,
-            dy,
-            win,
-            self.params.illumination,
-            self.min_eigen,
-        );
+        if !window::fits(prev, &origin, side) {
+            window::mask_outside(prev, &origin, win, dx, dy);
+        }
+        let template = Template::new(patch, dx, dy, win, self.params.illumination, self.min_eigen);
         match template {
             Ok(t) => Some((t, j)),
             Err(TemplateError::LowTexture) => None,

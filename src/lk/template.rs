@@ -241,11 +241,14 @@ fn template_sums(patch: &[i16], dx: &[i16], dy: &[i16], side: usize) -> Template
         .chunks_exact(side + 2)
         .skip(1)
         .map(|r| r.get(1..side + 1).unwrap_or(&[]));
-    let rows = intensities.zip(dx.chunks_exact(side)).zip(dy.chunks_exact(side));
+    let rows = intensities
+        .zip(dx.chunks_exact(side))
+        .zip(dy.chunks_exact(side));
     for ((i_row, x_row), y_row) in rows.take(side) {
         // Row sums are exact in 32 bits up to 63 px (module docs).
         let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
-        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) = (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
+        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
+            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
         for ((&i, &gx), &gy) in i_row.iter().zip(x_row).zip(y_row) {
             let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
             gxx += gx * gx;
@@ -286,7 +289,12 @@ mod tests {
 
     #[test]
     fn eigenvalue_test_matches_closed_form() {
-        let cases = [(100, 0, 100), (100, 99, 100), (50, -20, 400), (1000, 10, 10)];
+        let cases = [
+            (100, 0, 100),
+            (100, 99, 100),
+            (50, -20, 400),
+            (1000, 10, 10),
+        ];
         for (a, b, c) in cases {
             let s = TemplateSums {
                 gxx: a,
@@ -303,6 +311,46 @@ mod tests {
                     "G = [{a} {b}; {b} {c}], tau {tau}"
                 );
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod width_tests {
+    use super::*;
+
+    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values the
+    /// sampler and the Scharr filter can produce, checked against 128-bit arithmetic.
+    #[test]
+    fn window_sums_are_exact_at_the_extremes() {
+        const SIDE: usize = super::super::MAX_WINDOW;
+        let patch = [8160i16; (SIDE + 2) * (SIDE + 2)];
+        for (gx_sign, gy_sign) in [(1i16, 1i16), (1, -1), (-1, -1)] {
+            let dx = [4080 * gx_sign; SIDE * SIDE];
+            let dy = [4080 * gy_sign; SIDE * SIDE];
+            let s = template_sums(&patch, &dx, &dy, SIDE);
+            let n = (SIDE * SIDE) as i128;
+            let (gx, gy) = (4080 * gx_sign as i128, 4080 * gy_sign as i128);
+            assert_eq!(s.gxx as i128, n * gx * gx);
+            assert_eq!(s.gxy as i128, n * gx * gy);
+            assert_eq!(s.sii as i128, n * 8160 * 8160);
+            assert_eq!(s.six as i128, n * 8160 * gx);
+            assert_eq!(s.siy as i128, n * 8160 * gy);
+            let template = Template {
+                side: SIDE,
+                patch: &patch,
+                dx: &dx,
+                dy: &dy,
+                sums: s,
+                illumination: Illumination::GainBias,
+                solve: Reciprocal::of(1).unwrap(),
+                variance: None,
+            };
+            let j = [8160i16; SIDE * SIDE];
+            let m = template.match_sums(&j);
+            assert_eq!(m.sji as i128, n * 8160 * 8160);
+            assert_eq!(m.sjx as i128, n * 8160 * gx);
+            assert_eq!(m.sjy as i128, n * 8160 * gy);
         }
     }
 }

@@ -21,7 +21,7 @@ impl Reciprocal {
         // Normalise d to [2^127, 2^128) and keep its top 32 bits: d ~= top * 2^(96 - lz).
         let lz = d.leading_zeros();
         let top = ((d << lz) >> 96) as u64; // in [2^31, 2^32)
-        // 1/d ~= 2^63 / top * 2^-(63 + 96 - lz); 2^63 / top lies in (2^31, 2^32].
+                                            // 1/d ~= 2^63 / top * 2^-(63 + 96 - lz); 2^63 / top lies in (2^31, 2^32].
         let mantissa = (1u64 << 63) / top;
         Some(Self {
             mantissa,

@@ -61,11 +61,7 @@ impl WindowOrigin {
 
 /// Samples a `side` x `side` window of `frame` at `origin` into `out` (row-major, grey x 32).
 pub(crate) fn sample(frame: &ImageView<'_>, origin: &WindowOrigin, side: usize, out: &mut [i16]) {
-    let inside = origin.x >= 0
-        && origin.y >= 0
-        && origin.x as usize + side < frame.width()
-        && origin.y as usize + side < frame.height();
-    if inside {
+    if fits(frame, origin, side) {
         sample_inside(frame, origin, side, out);
     } else {
         sample_clamped(frame, origin, side, out);
@@ -84,7 +80,11 @@ fn sample_inside(frame: &ImageView<'_>, origin: &WindowOrigin, side: usize, out:
     for (r, out_row) in out.chunks_exact_mut(side).take(side).enumerate() {
         let top = frame.row(y0 + r).get(x0..x0 + side + 1).unwrap_or(&[]);
         let bottom = frame.row(y0 + r + 1).get(x0..x0 + side + 1).unwrap_or(&[]);
-        for ((o, t), b) in out_row.iter_mut().zip(top.windows(2)).zip(bottom.windows(2)) {
+        for ((o, t), b) in out_row
+            .iter_mut()
+            .zip(top.windows(2))
+            .zip(bottom.windows(2))
+        {
             *o = interpolate(&origin.w, t[0], t[1], b[0], b[1]);
         }
     }
@@ -111,6 +111,52 @@ fn sample_clamped(frame: &ImageView<'_>, origin: &WindowOrigin, side: usize, out
             );
         }
     }
+}
+
+/// Zeroes the gradients of template pixels that lie outside `frame`.
+///
+/// Outside the frame the sampler repeats edge pixels, which do not move with the scene; with
+/// zero gradients those pixels drop out of the gradient matrix and the mismatch vector, so a point
+/// near the border is tracked on the part of its window that is real image.
+pub(crate) fn mask_outside(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    side: usize,
+    dx: &mut [i16],
+    dy: &mut [i16],
+) {
+    // `origin` is the patch origin; the template starts one pixel further in.
+    let (x0, y0) = (origin.x + 1, origin.y + 1);
+    // A sample between pixels needs its right and lower neighbours too.
+    let reach_x = isize::from(origin.w[1] != 0 || origin.w[3] != 0);
+    let reach_y = isize::from(origin.w[2] != 0 || origin.w[3] != 0);
+    let inside_x = |c: usize| {
+        let x = x0 + c as isize;
+        x >= 0 && x + reach_x < frame.width() as isize
+    };
+    let inside_y = |r: usize| {
+        let y = y0 + r as isize;
+        y >= 0 && y + reach_y < frame.height() as isize
+    };
+    let rows = dx.chunks_exact_mut(side).zip(dy.chunks_exact_mut(side));
+    for (r, (dx_row, dy_row)) in rows.enumerate() {
+        let row_inside = inside_y(r);
+        for (c, (gx, gy)) in dx_row.iter_mut().zip(dy_row.iter_mut()).enumerate() {
+            if !row_inside || !inside_x(c) {
+                *gx = 0;
+                *gy = 0;
+            }
+        }
+    }
+}
+
+/// True when every sample of a `side` x `side` window at `origin`, with its bilinear
+/// neighbours, lies in the frame.
+pub(crate) fn fits(frame: &ImageView<'_>, origin: &WindowOrigin, side: usize) -> bool {
+    origin.x >= 0
+        && origin.y >= 0
+        && origin.x as usize + side < frame.width()
+        && origin.y as usize + side < frame.height()
 }
 
 /// Scharr derivatives of the inner `side - 2` square of a `side` x `side` patch.

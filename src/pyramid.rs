@@ -228,8 +228,11 @@ pub(crate) fn reflect101(i: isize, n: usize) -> usize {
 const STRIP: usize = 64;
 
 /// Blurs `src` with the 5x5 binomial kernel and writes every second pixel into `dst` (`w` x `h`).
+///
+/// Separable: each strip of output columns first sums five source rows `[1 4 6 4 1]` into a
+/// small buffer, then filters that buffer horizontally at every second column.
 fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
-    let (sw, sh) = (src.width(), src.height());
+    let sh = src.height();
     // Vertical sums for the source columns of one strip: at most 16 * 255, fits u16.
     let mut column_sums = [0u16; 2 * STRIP + 3];
     for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
@@ -239,24 +242,50 @@ fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
         while x0 < w {
             let x1 = (x0 + STRIP).min(w);
             // Source columns 2*x0-2 ..= 2*(x1-1)+2.
-            let first = 2 * x0 as isize - 2;
             let count = 2 * (x1 - x0) + 3;
-            for (i, sum) in column_sums.iter_mut().take(count).enumerate() {
-                let sx = reflect101(first + i as isize, sw);
-                let px = |k: usize| u16::from(rows[k].get(sx).copied().unwrap_or(0));
-                *sum = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
-            }
-            for (x, out) in out_row.iter_mut().enumerate().take(x1).skip(x0) {
-                let c = &column_sums[2 * (x - x0)..2 * (x - x0) + 5];
-                let total = u32::from(c[0])
-                    + 4 * u32::from(c[1])
-                    + 6 * u32::from(c[2])
-                    + 4 * u32::from(c[3])
-                    + u32::from(c[4]);
-                *out = ((total + 128) >> 8) as u8;
-            }
+            vertical_sums(&rows, 2 * x0 as isize - 2, &mut column_sums[..count]);
+            let outputs = out_row.get_mut(x0..x1).unwrap_or(&mut []);
+            horizontal_filter(&column_sums[..count], outputs);
             x0 = x1;
         }
+    }
+}
+
+/// `sums[i] = [1 4 6 4 1] . rows[..][first + i]`, with mirrored columns outside the rows.
+fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
+    let width = rows[0].len();
+    let end = first + sums.len() as isize;
+    if first >= 0 && end <= width as isize {
+        // Interior: five equal-length runs, vectorised.
+        let range = first as usize..end as usize;
+        let run = |k: usize| rows[k].get(range.clone()).unwrap_or(&[]);
+        let taps = run(0)
+            .iter()
+            .zip(run(1))
+            .zip(run(2).iter().zip(run(3)).zip(run(4)));
+        for (s, ((&a, &b), ((&c, &d), &e))) in sums.iter_mut().zip(taps) {
+            let [a, b, c, d, e] = [a, b, c, d, e].map(u16::from);
+            *s = a + 4 * b + 6 * c + 4 * d + e;
+        }
+        return;
+    }
+    for (i, s) in sums.iter_mut().enumerate() {
+        let x = reflect101(first + i as isize, width);
+        let px = |k: usize| u16::from(rows[k].get(x).copied().unwrap_or(0));
+        *s = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
+    }
+}
+
+/// `out[x] = [1 4 6 4 1] . sums[2x..2x+5] / 256`, rounded.
+fn horizontal_filter(sums: &[u16], out: &mut [u8]) {
+    // Pairs (2x, 2x+1), (2x+2, 2x+3) and the single 2x+4, as three aligned iterators.
+    let pairs = sums.chunks_exact(2);
+    let next_pairs = sums.get(2..).unwrap_or(&[]).chunks_exact(2);
+    let last = sums.get(4..).unwrap_or(&[]).iter().step_by(2);
+    for (o, ((p, q), &e)) in out.iter_mut().zip(pairs.zip(next_pairs).zip(last)) {
+        let (a, b, c, d) = (p[0], p[1], q[0], q[1]);
+        let total = u32::from(a) + 4 * u32::from(b) + 6 * u32::from(c) + 4 * u32::from(d);
+        *o = ((total + u32::from(e) + 128) >> 8) as u8;
     }
 }
 

@@ -45,23 +45,25 @@ use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use template::{Step, Template, TemplateError};
-use window::WindowOrigin;
+use window::{Layout, WindowOrigin};
 
 /// The largest window side accepted.
 pub const MAX_WINDOW: usize = 63;
 
 /// `i16` scratch values one point needs for a `window` x `window` window.
 ///
-/// The scratch holds the template patch with its derivative border, its two gradients and the
-/// resampled next-frame window; size it for the largest window the application uses:
+/// The scratch holds the source pixels under a window, the template patch with its derivative
+/// border, the template, its two gradients and the resampled next-frame window, each row padded
+/// to `window + 3` values; size it for the largest window the application uses:
 ///
 /// ```
 /// use kestrel::lk::scratch_len;
 /// static mut SCRATCH: [i16; scratch_len(21)] = [0; scratch_len(21)];
-/// assert_eq!(scratch_len(21), 23 * 23 + 3 * 21 * 21);
+/// assert_eq!(scratch_len(21), 3_147);
 /// ```
 pub const fn scratch_len(window: usize) -> usize {
-    (window + 2) * (window + 2) + 3 * window * window
+    let layout = Layout::new(window);
+    layout.source_len() + layout.patch_len() + 4 * layout.window_len()
 }
 
 /// How brightness differences between the two frames are treated.
@@ -393,17 +395,15 @@ impl LucasKanade {
         estimate: &mut (i32, i32),
         scratch: &mut [i16],
     ) -> (LevelOutcome, i32) {
-        let win = self.params.window;
-        let Some((template, j)) = self.template(prev, scale.centre, scratch) else {
+        let Some((template, mut j)) = self.template(prev, scale.centre, scratch) else {
             return (LevelOutcome::LowTexture, 0);
         };
-        let outcome = self.iterate(&template, next, estimate, j);
+        let outcome = self.iterate(&template, next, estimate, &mut j);
         if outcome != LevelOutcome::Converged || !scale.finest {
             return (outcome, 0);
         }
-        let origin = WindowOrigin::new(estimate.0, estimate.1, win / 2);
-        window::sample(next, &origin, win, j);
-        (outcome, template.residual(j))
+        j.sample(next, *estimate);
+        (outcome, template.residual(j.values))
     }
 
     /// The LK iterations of one level.
@@ -412,7 +412,7 @@ impl LucasKanade {
         template: &Template<'_>,
         next: &ImageView<'_>,
         estimate: &mut (i32, i32),
-        j: &mut [i16],
+        j: &mut NextWindow<'_>,
     ) -> LevelOutcome {
         let win = self.params.window;
         let mut previous: Option<Step> = None;
@@ -421,8 +421,8 @@ impl LucasKanade {
             if origin.misses(next, win) {
                 return LevelOutcome::LeftFrame;
             }
-            window::sample(next, &origin, win, j);
-            let step = template.step(j);
+            j.sample(next, *estimate);
+            let step = template.step(j.values);
             estimate.0 = estimate.0.saturating_add(step.dx);
             estimate.1 = estimate.1.saturating_add(step.dy);
             let (sx, sy) = (i64::from(step.dx), i64::from(step.dy));
@@ -451,24 +451,53 @@ impl LucasKanade {
         prev: &ImageView<'_>,
         centre: (i32, i32),
         scratch: &'s mut [i16],
-    ) -> Option<(Template<'s>, &'s mut [i16])> {
+    ) -> Option<(Template<'s>, NextWindow<'s>)> {
         let win = self.params.window;
-        let side = win + 2;
-        let (patch, rest) = scratch.split_at_mut(side * side);
-        let (dx, rest) = rest.split_at_mut(win * win);
-        let (dy, rest) = rest.split_at_mut(win * win);
-        let j = rest.get_mut(..win * win)?;
+        let layout = Layout::new(win);
+        let (source, rest) = scratch.split_at_mut(layout.source_len());
+        let (patch, rest) = rest.split_at_mut(layout.patch_len());
+        let (intensity, rest) = rest.split_at_mut(layout.window_len());
+        let (dx, rest) = rest.split_at_mut(layout.window_len());
+        let (dy, rest) = rest.split_at_mut(layout.window_len());
+        let values = rest.get_mut(..layout.window_len())?;
+        // The patch adds a one-pixel border for the derivatives.
         let origin = WindowOrigin::new(centre.0, centre.1, win / 2 + 1);
-        window::sample(prev, &origin, side, patch);
-        window::scharr(patch, side, dx, dy);
-        if !window::fits(prev, &origin, side) {
-            window::mask_outside(prev, &origin, win, dx, dy);
+        window::sample(prev, &origin, win + 2, &layout, source, patch);
+        window::scharr(patch, &layout, dx, dy);
+        if !origin.fits(prev, win + 2, win + 2) {
+            window::mask_outside(prev, &origin, &layout, dx, dy);
         }
-        let template = Template::new(patch, dx, dy, win, self.params.illumination, self.min_eigen);
+        window::inner(patch, &layout, intensity);
+        let illumination = self.params.illumination;
+        let template = Template::new(intensity, dx, dy, layout, illumination, self.min_eigen);
         match template {
-            Ok(t) => Some((t, j)),
+            Ok(t) => Some((
+                t,
+                NextWindow {
+                    layout,
+                    source,
+                    values,
+                },
+            )),
             Err(TemplateError::LowTexture) => None,
         }
+    }
+}
+
+/// The next frame's window at the current estimate, with the buffer its source pixels go through.
+struct NextWindow<'s> {
+    layout: Layout,
+    source: &'s mut [i16],
+    values: &'s mut [i16],
+}
+
+impl NextWindow<'_> {
+    /// Resamples the window centred at `estimate` (Q16 raw bits).
+    fn sample(&mut self, frame: &ImageView<'_>, estimate: (i32, i32)) {
+        let win = self.layout.win;
+        let origin = WindowOrigin::new(estimate.0, estimate.1, win / 2);
+        window::sample(frame, &origin, win, &self.layout, self.source, self.values);
+        self.layout.clear_padding(self.values);
     }
 }
 

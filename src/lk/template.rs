@@ -13,13 +13,14 @@
 //! # Integer widths
 //!
 //! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
-//! `8160^2 = 66_585_600`, so one row of a 63-px window sums to at most `4_194_892_800`: below
-//! `u32::MAX` for `I*J` (both non-negative) and, for the signed products (`|I*Ix| <= 33_292_800`,
-//! row `<= 2_097_446_400`), below `i32::MAX`. Row sums are exact in 32 bits and windows add rows in
-//! 64 bits (`<= 2.7e11`). Products of window sums go through `i128`.
+//! `8160^2 = 66_585_600`, so [`CHUNK`] = 64 consecutive products sum to at most `4_261_478_400`:
+//! below `u32::MAX` for `I*J` (both non-negative) and, for the signed products
+//! (`|I*Ix| <= 33_292_800`, 64 of them `<= 2_130_739_200`), below `i32::MAX`. Chunk sums are
+//! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
+//! Products of window sums go through `i128`.
 
 use super::wide::Reciprocal;
-use super::window::INTENSITY_BITS;
+use super::window::{Layout, INTENSITY_BITS};
 use super::Illumination;
 
 /// The gain estimate is clamped to `[1/4, 4]` (Q16): no lighting change between two frames of a
@@ -27,6 +28,9 @@ use super::Illumination;
 const GAIN_MIN: i64 = 1 << 14;
 const GAIN_MAX: i64 = 1 << 18;
 const ONE: i64 = 1 << 16;
+
+/// Products summed in 32 bits before widening: the most that provably cannot overflow.
+const CHUNK: usize = 64;
 
 /// Window sums of the template that every iteration needs.
 #[derive(Debug, Clone, Copy, Default)]
@@ -69,9 +73,9 @@ pub(crate) struct Step {
 
 /// A point's window at one level with its precomputed solve.
 pub(crate) struct Template<'s> {
-    side: usize,
-    /// The `(side + 2)^2` patch; the template itself is its inner `side^2` square.
-    patch: &'s [i16],
+    layout: Layout,
+    /// The template intensities, laid out like the gradients and `J` (padding zero).
+    intensity: &'s [i16],
     dx: &'s [i16],
     dy: &'s [i16],
     sums: TemplateSums,
@@ -83,24 +87,24 @@ pub(crate) struct Template<'s> {
 }
 
 impl<'s> Template<'s> {
-    /// Builds the template from a sampled patch and its derivatives.
+    /// Builds the template from its intensities and derivatives, padding cleared.
     ///
     /// `min_eigen` is the smallest acceptable eigenvalue of the gradient matrix in its integer
     /// scale (see [`super::LucasKanade`]).
     pub(crate) fn new(
-        patch: &'s [i16],
+        intensity: &'s [i16],
         dx: &'s [i16],
         dy: &'s [i16],
-        side: usize,
+        layout: Layout,
         illumination: Illumination,
         min_eigen: u64,
     ) -> Result<Self, TemplateError> {
-        let sums = template_sums(patch, dx, dy, side);
+        let sums = template_sums(intensity, dx, dy);
         if !min_eigenvalue_at_least(&sums, min_eigen) {
             return Err(TemplateError::LowTexture);
         }
         let det = sums.gxx as i128 * sums.gyy as i128 - sums.gxy as i128 * sums.gxy as i128;
-        let n = (side * side) as i128;
+        let n = (layout.win * layout.win) as i128;
         let scaled_det = match illumination {
             Illumination::Plain => det,
             Illumination::GainBias => det * n,
@@ -112,8 +116,8 @@ impl<'s> Template<'s> {
         let variance_n = n * sums.sii as i128 - sums.si as i128 * sums.si as i128;
         let variance = u128::try_from(variance_n).ok().and_then(Reciprocal::of);
         Ok(Self {
-            side,
-            patch,
+            layout,
+            intensity,
             dx,
             dy,
             sums,
@@ -123,23 +127,8 @@ impl<'s> Template<'s> {
         })
     }
 
-    /// The template's rows: intensities, x and y gradients.
-    fn rows(&self) -> impl Iterator<Item = (&'s [i16], &'s [i16], &'s [i16])> + 's {
-        let side = self.side;
-        let intensities = self
-            .patch
-            .chunks_exact(side + 2)
-            .skip(1)
-            .map(move |r| r.get(1..side + 1).unwrap_or(&[]));
-        intensities
-            .zip(self.dx.chunks_exact(side))
-            .zip(self.dy.chunks_exact(side))
-            .map(|((i, x), y)| (i, x, y))
-            .take(side)
-    }
-
     fn n(&self) -> i128 {
-        (self.side * self.side) as i128
+        (self.layout.win * self.layout.win) as i128
     }
 
     /// One LK step for the next-frame window `j` sampled at the current estimate.
@@ -198,7 +187,8 @@ impl<'s> Template<'s> {
             Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
         };
         let mut total: i64 = 0;
-        for ((i_row, _, _), j_row) in self.rows().zip(j.chunks_exact(self.side)) {
+        let rows = self.layout.rows(self.intensity).zip(self.layout.rows(j));
+        for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
                 let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
                 total += r.abs();
@@ -211,19 +201,22 @@ impl<'s> Template<'s> {
 
     fn match_sums(&self, j: &[i16]) -> MatchSums {
         let mut m = MatchSums::default();
-        let gain_bias = self.illumination == Illumination::GainBias;
-        for ((i_row, x_row, y_row), j_row) in self.rows().zip(j.chunks_exact(self.side)) {
-            // Exact in 32 bits for windows up to 63 px (module docs).
+        let chunks = j
+            .chunks(CHUNK)
+            .zip(self.intensity.chunks(CHUNK))
+            .zip(self.dx.chunks(CHUNK).zip(self.dy.chunks(CHUNK)));
+        for ((j, i), (gx, gy)) in chunks {
+            // Exact in 32 bits for 64 products (module docs).
             let (mut sjx, mut sjy) = (0i32, 0i32);
-            for ((&jv, &gx), &gy) in j_row.iter().zip(x_row).zip(y_row) {
+            for ((&jv, &gx), &gy) in j.iter().zip(gx).zip(gy) {
                 sjx += i32::from(jv) * i32::from(gx);
                 sjy += i32::from(jv) * i32::from(gy);
             }
             m.sjx += i64::from(sjx);
             m.sjy += i64::from(sjy);
-            if gain_bias {
+            if self.illumination == Illumination::GainBias {
                 let (mut sj, mut sji) = (0i32, 0u32);
-                for (&jv, &i) in j_row.iter().zip(i_row) {
+                for (&jv, &i) in j.iter().zip(i) {
                     sj += i32::from(jv);
                     sji += (i32::from(jv) * i32::from(i)) as u32;
                 }
@@ -235,21 +228,17 @@ impl<'s> Template<'s> {
     }
 }
 
-fn template_sums(patch: &[i16], dx: &[i16], dy: &[i16], side: usize) -> TemplateSums {
+fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
     let mut s = TemplateSums::default();
-    let intensities = patch
-        .chunks_exact(side + 2)
-        .skip(1)
-        .map(|r| r.get(1..side + 1).unwrap_or(&[]));
-    let rows = intensities
-        .zip(dx.chunks_exact(side))
-        .zip(dy.chunks_exact(side));
-    for ((i_row, x_row), y_row) in rows.take(side) {
-        // Row sums are exact in 32 bits up to 63 px (module docs).
+    let chunks = intensity
+        .chunks(CHUNK)
+        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
+    for (i_chunk, (x_chunk, y_chunk)) in chunks {
+        // Exact in 32 bits for 64 products (module docs).
         let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
         let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
             (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
-        for ((&i, &gx), &gy) in i_row.iter().zip(x_row).zip(y_row) {
+        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
             let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
             gxx += gx * gx;
             gxy += gx * gy;
@@ -324,11 +313,12 @@ mod width_tests {
     #[test]
     fn window_sums_are_exact_at_the_extremes() {
         const SIDE: usize = super::super::MAX_WINDOW;
-        let patch = [8160i16; (SIDE + 2) * (SIDE + 2)];
+        // A window buffer without padding: every value counts.
+        let intensity = [8160i16; SIDE * SIDE];
         for (gx_sign, gy_sign) in [(1i16, 1i16), (1, -1), (-1, -1)] {
             let dx = [4080 * gx_sign; SIDE * SIDE];
             let dy = [4080 * gy_sign; SIDE * SIDE];
-            let s = template_sums(&patch, &dx, &dy, SIDE);
+            let s = template_sums(&intensity, &dx, &dy);
             let n = (SIDE * SIDE) as i128;
             let (gx, gy) = (4080 * gx_sign as i128, 4080 * gy_sign as i128);
             assert_eq!(s.gxx as i128, n * gx * gx);
@@ -337,8 +327,11 @@ mod width_tests {
             assert_eq!(s.six as i128, n * 8160 * gx);
             assert_eq!(s.siy as i128, n * 8160 * gy);
             let template = Template {
-                side: SIDE,
-                patch: &patch,
+                layout: Layout {
+                    win: SIDE,
+                    pitch: SIDE,
+                },
+                intensity: &intensity,
                 dx: &dx,
                 dy: &dy,
                 sums: s,

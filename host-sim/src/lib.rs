@@ -3,5 +3,6 @@
 
 pub mod frame;
 pub mod io;
+pub mod reference;
 
 pub use frame::Frame;

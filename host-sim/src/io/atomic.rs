@@ -52,8 +52,16 @@ impl AtomicFile {
             .write(true)
             .create_new(true)
             .open(&temp)
-            .map_err(|e| {
-                OutputError::new(target, format!("cannot write: {}", describe_io_error(&e)))
+            .map_err(|e| match e.kind() {
+                // The temporary's name would only confuse: say what the user can fix.
+                io::ErrorKind::NotFound => OutputError::new(
+                    target,
+                    format!(
+                        "cannot write: directory {} does not exist",
+                        directory.display()
+                    ),
+                ),
+                _ => OutputError::new(target, format!("cannot write: {}", describe_io_error(&e))),
             })?;
         Ok(Self {
             target: target.to_path_buf(),
@@ -175,7 +183,7 @@ mod tests {
         let missing = dir.join("no-such-dir").join("out.csv");
         let error = AtomicFile::create(&missing).unwrap_err();
         assert!(
-            error.to_string().contains("no such file or directory"),
+            error.to_string().ends_with("no-such-dir does not exist"),
             "{error}"
         );
         assert!(AtomicFile::create(&dir).is_err());

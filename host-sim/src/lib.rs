@@ -1,6 +1,10 @@
 //! The Kestrel host simulator: decodes recorded frames, runs the library on them, compares it
 //! with an f32 reference implementation and writes standard formats.
 
+pub mod cli;
+pub mod commands;
 pub mod frame;
+pub mod io;
+pub mod reference;
 
 pub use frame::Frame;

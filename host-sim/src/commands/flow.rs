@@ -1,0 +1,322 @@
+//! `host-sim flow`: sparse pyramidal LK of given points from one frame to the next.
+
+use std::io::{self, Write};
+use std::path::PathBuf;
+use std::time::Instant;
+
+use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack, TrackStatus};
+use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::{Point, Q16};
+
+use super::CommandError;
+use crate::io::csv::{read_points, CsvWriter, Fixed4};
+use crate::io::images::read_grey;
+use crate::io::json::JsonObject;
+use crate::io::{AtomicFile, InputError};
+use crate::{reference, Frame};
+
+/// Columns of the output file: the contract's six, then the status by name.
+pub const COLUMNS: [&str; 7] = ["x", "y", "nx", "ny", "ok", "err", "status"];
+
+/// Which implementation tracks the points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Engine {
+    /// The library's Q16 tracker.
+    #[default]
+    Library,
+    /// The f32 reference implementation.
+    Reference,
+}
+
+/// Everything `flow` needs, validated by the command line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlowOptions {
+    /// The first frame.
+    pub prev: PathBuf,
+    /// The second frame.
+    pub next: PathBuf,
+    /// CSV of the points to track.
+    pub points: PathBuf,
+    /// CSV of the results.
+    pub out: PathBuf,
+    /// Tracking parameters.
+    pub params: LkParams,
+    /// Which implementation runs.
+    pub engine: Engine,
+    /// How many times the core runs (at least 1).
+    pub repeat: usize,
+    /// Where to write the timing summary, if anywhere.
+    pub stats: Option<PathBuf>,
+}
+
+/// One point's result, in the output file's units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointFlow {
+    /// Position in the next frame (the last estimate when not tracked).
+    pub x: f64,
+    /// Position in the next frame (the last estimate when not tracked).
+    pub y: f64,
+    /// Whether the point was tracked, and why not.
+    pub status: TrackStatus,
+    /// Mean absolute intensity residual over the window, grey levels.
+    pub residual: f64,
+}
+
+/// Runs `flow`. Outputs are created before any work, so an unwritable path fails fast, and
+/// committed only after everything succeeded, so an error leaves no output behind.
+pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
+    let mut out = AtomicFile::create(&options.out)?;
+    let mut stats = options
+        .stats
+        .as_deref()
+        .map(AtomicFile::create)
+        .transpose()?;
+
+    let prev = read_grey(&options.prev)?;
+    let next = read_grey(&options.next)?;
+    check_same_size(options, &prev, &next)?;
+    let points = read_points(&options.points)?;
+
+    let (flows, median_seconds) = match options.engine {
+        Engine::Library => {
+            let mut tracker = LibraryTracker::new(&options.params, &prev, &points)?;
+            let ((), seconds) = time_core(options.repeat, || tracker.track(&prev, &next))?;
+            (tracker.flows(), seconds)
+        }
+        Engine::Reference => {
+            let (tracks, seconds) = time_core(options.repeat, || {
+                Ok(reference::track_points(
+                    &prev,
+                    &next,
+                    &points,
+                    None,
+                    &options.params,
+                ))
+            })?;
+            (tracks.iter().map(reference_flow).collect(), seconds)
+        }
+    };
+
+    write_flow_csv(&mut out, &points, &flows).map_err(|e| out.write_error(&e))?;
+    if let Some(stats) = &mut stats {
+        let summary = JsonObject::new()
+            .integer("points", points.len() as u64)
+            .integer("repeat", options.repeat as u64)
+            .number("median_core_seconds", median_seconds)
+            .finish();
+        stats
+            .write_all(summary.as_bytes())
+            .map_err(|e| stats.write_error(&e))?;
+    }
+    out.commit()?;
+    if let Some(stats) = stats {
+        stats.commit()?;
+    }
+    Ok(())
+}
+
+/// The name of a status in the output's `status` column.
+pub fn status_name(status: TrackStatus) -> &'static str {
+    match status {
+        TrackStatus::Tracked => "tracked",
+        TrackStatus::OutOfBounds => "out_of_bounds",
+        TrackStatus::LowTexture => "low_texture",
+        TrackStatus::NotConverged => "not_converged",
+    }
+}
+
+fn check_same_size(options: &FlowOptions, prev: &Frame, next: &Frame) -> Result<(), InputError> {
+    if (prev.width, prev.height) == (next.width, next.height) {
+        return Ok(());
+    }
+    let problem = format!(
+        "is {}x{} but {} is {}x{}; the frames must have the same size",
+        prev.width,
+        prev.height,
+        options.next.display(),
+        next.width,
+        next.height
+    );
+    Err(InputError::file(&options.prev, problem))
+}
+
+/// The library's tracker with host-allocated storage for one frame size and point list.
+///
+/// Everything is allocated up front, as firmware would in statics, so that [`Self::track`] is
+/// exactly the core being timed: both pyramids built and every point tracked.
+struct LibraryTracker {
+    lk: LucasKanade,
+    levels: usize,
+    prev_storage: Vec<u8>,
+    next_storage: Vec<u8>,
+    scratch: Vec<i16>,
+    starts: Vec<Point>,
+    tracks: Vec<PointTrack>,
+}
+
+impl LibraryTracker {
+    fn new(params: &LkParams, frame: &Frame, points: &[(f32, f32)]) -> Result<Self, CommandError> {
+        let lk = LucasKanade::new(*params).map_err(|e| tracking_failed(&e))?;
+        let levels = params.max_level;
+        let storage_len = pyramid_storage_len(frame.width, frame.height, levels);
+        Ok(Self {
+            lk,
+            levels,
+            prev_storage: vec![0; storage_len],
+            next_storage: vec![0; storage_len],
+            scratch: vec![0; scratch_len(params.window)],
+            starts: points.iter().map(|&(x, y)| Point::from_f32(x, y)).collect(),
+            tracks: vec![PointTrack::default(); points.len()],
+        })
+    }
+
+    /// The core: builds both pyramids and tracks every point.
+    fn track(&mut self, prev: &Frame, next: &Frame) -> Result<(), CommandError> {
+        let prev_view = prev.view().map_err(|e| tracking_failed(&e))?;
+        let next_view = next.view().map_err(|e| tracking_failed(&e))?;
+        let prev_pyramid = Pyramid::build(prev_view, self.levels, &mut self.prev_storage)
+            .map_err(|e| tracking_failed(&e))?;
+        let next_pyramid = Pyramid::build(next_view, self.levels, &mut self.next_storage)
+            .map_err(|e| tracking_failed(&e))?;
+        self.lk
+            .track_points(
+                &prev_pyramid,
+                &next_pyramid,
+                &self.starts,
+                None,
+                &mut self.tracks,
+                &mut self.scratch,
+            )
+            .map_err(|e| tracking_failed(&e))
+    }
+
+    fn flows(&self) -> Vec<PointFlow> {
+        self.tracks
+            .iter()
+            .map(|track| PointFlow {
+                x: q16_to_f64(track.position.x),
+                y: q16_to_f64(track.position.y),
+                status: track.status,
+                residual: q16_to_f64(track.residual),
+            })
+            .collect()
+    }
+}
+
+fn tracking_failed(error: &dyn std::fmt::Display) -> CommandError {
+    CommandError::Processing(format!("cannot track: {error}"))
+}
+
+/// A Q16 value as `f64`, exactly (an `f32` would drop fraction bits beyond 256 px).
+fn q16_to_f64(value: Q16) -> f64 {
+    f64::from(value.to_bits()) / 65536.0
+}
+
+fn reference_flow(track: &reference::RefTrack) -> PointFlow {
+    PointFlow {
+        x: f64::from(track.x),
+        y: f64::from(track.y),
+        status: track.status,
+        residual: f64::from(track.residual),
+    }
+}
+
+/// Runs `core` `repeat` times (at least once) and returns its last result with the median
+/// duration in seconds.
+fn time_core<T>(
+    repeat: usize,
+    mut core: impl FnMut() -> Result<T, CommandError>,
+) -> Result<(T, f64), CommandError> {
+    let mut seconds = Vec::with_capacity(repeat.max(1));
+    let mut timed_run = |seconds: &mut Vec<f64>| {
+        let start = Instant::now();
+        let result = core()?;
+        seconds.push(start.elapsed().as_secs_f64());
+        Ok::<T, CommandError>(result)
+    };
+    let mut result = timed_run(&mut seconds)?;
+    for _ in 1..repeat {
+        // The previous result is dropped after the clock stopped.
+        result = timed_run(&mut seconds)?;
+    }
+    Ok((result, median(&mut seconds)))
+}
+
+/// The median of `values` (the mean of the two middle ones for an even count); 0 when empty.
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let middle = values.len() / 2;
+    match values.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => values[middle],
+        _ => (values[middle - 1] + values[middle]) / 2.0,
+    }
+}
+
+fn write_flow_csv(out: impl Write, points: &[(f32, f32)], flows: &[PointFlow]) -> io::Result<()> {
+    let mut csv = CsvWriter::new(out, &COLUMNS)?;
+    for (&(x, y), flow) in points.iter().zip(flows) {
+        let ok = u8::from(flow.status == TrackStatus::Tracked);
+        csv.record(&[
+            &Fixed4(f64::from(x)),
+            &Fixed4(f64::from(y)),
+            &Fixed4(flow.x),
+            &Fixed4(flow.y),
+            &ok,
+            &Fixed4(flow.residual),
+            &status_name(flow.status),
+        ])?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&mut []), 0.0);
+    }
+
+    #[test]
+    fn core_runs_the_requested_number_of_times() {
+        let mut runs = 0;
+        let (last, seconds) = time_core(5, || {
+            runs += 1;
+            Ok(runs)
+        })
+        .unwrap();
+        assert_eq!((runs, last), (5, 5));
+        assert!(seconds >= 0.0);
+    }
+
+    #[test]
+    fn rows_follow_the_points_and_only_tracked_is_ok() {
+        let points = [(1.0, 2.0), (-5.0, 3.5)];
+        let flows = [
+            PointFlow {
+                x: 3.0,
+                y: 2.25,
+                status: TrackStatus::Tracked,
+                residual: 1.5,
+            },
+            PointFlow {
+                x: -5.0,
+                y: 3.5,
+                status: TrackStatus::OutOfBounds,
+                residual: 0.0,
+            },
+        ];
+        let mut text = Vec::new();
+        write_flow_csv(&mut text, &points, &flows).unwrap();
+        assert_eq!(
+            String::from_utf8(text).unwrap(),
+            "x,y,nx,ny,ok,err,status\n\
+             1.0000,2.0000,3.0000,2.2500,1,1.5000,tracked\n\
+             -5.0000,3.5000,-5.0000,3.5000,0,0.0000,out_of_bounds\n"
+        );
+    }
+}

@@ -253,26 +253,28 @@ fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
 
 /// `sums[i] = [1 4 6 4 1] . rows[..][first + i]`, with mirrored columns outside the rows.
 fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
-    let width = rows[0].len();
-    let end = first + sums.len() as isize;
-    if first >= 0 && end <= width as isize {
-        // Interior: five equal-length runs, vectorised.
-        let range = first as usize..end as usize;
-        let run = |k: usize| rows[k].get(range.clone()).unwrap_or(&[]);
-        let taps = run(0)
-            .iter()
-            .zip(run(1))
-            .zip(run(2).iter().zip(run(3)).zip(run(4)));
-        for (s, ((&a, &b), ((&c, &d), &e))) in sums.iter_mut().zip(taps) {
-            let [a, b, c, d, e] = [a, b, c, d, e].map(u16::from);
-            *s = a + 4 * b + 6 * c + 4 * d + e;
-        }
-        return;
-    }
-    for (i, s) in sums.iter_mut().enumerate() {
-        let x = reflect101(first + i as isize, width);
+    let width = rows[0].len() as isize;
+    // Offsets into `sums` of the columns that lie inside the rows.
+    let lo = (-first).clamp(0, sums.len() as isize) as usize;
+    let hi = (width - first).clamp(lo as isize, sums.len() as isize) as usize;
+    for i in (0..lo).chain(hi..sums.len()) {
+        let x = reflect101(first + i as isize, width as usize);
         let px = |k: usize| u16::from(rows[k].get(x).copied().unwrap_or(0));
-        *s = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
+        if let Some(s) = sums.get_mut(i) {
+            *s = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
+        }
+    }
+    // Interior: five equal-length runs, vectorised.
+    let start = (first + lo as isize).max(0) as usize;
+    let run = |k: usize| rows[k].get(start..start + hi - lo).unwrap_or(&[]);
+    let taps = run(0)
+        .iter()
+        .zip(run(1))
+        .zip(run(2).iter().zip(run(3)).zip(run(4)));
+    let interior = sums.get_mut(lo..hi).unwrap_or(&mut []);
+    for (s, ((&a, &b), ((&c, &d), &e))) in interior.iter_mut().zip(taps) {
+        let [a, b, c, d, e] = [a, b, c, d, e].map(u16::from);
+        *s = a + 4 * b + 6 * c + 4 * d + e;
     }
 }
 

@@ -2,5 +2,6 @@
 //! with an f32 reference implementation and writes standard formats.
 
 pub mod frame;
+pub mod reference;
 
 pub use frame::Frame;

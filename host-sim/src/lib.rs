@@ -3,5 +3,6 @@
 
 pub mod frame;
 pub mod reference;
+pub mod synth;
 
 pub use frame::Frame;

@@ -59,7 +59,9 @@ impl RefTrack {
 
 /// Tracks `points` from `prev` to `next` with pyramids of `params.max_level` levels.
 ///
-/// `guesses`, when given, holds a predicted position in `next` for each point. Panics if
+/// `guesses`, when given, holds a predicted position in `next` for each point. Coordinates are
+/// read as the library reads them from `f32` ([`kestrel::Point::from_f32`]): NaN as 0, and
+/// saturated to the Q16 range, so that both implementations start from the same place. Panics if
 /// `guesses` and `points` differ in length or if the window is not odd and at least 3 (the
 /// library refuses such parameters).
 ///
@@ -105,10 +107,27 @@ pub fn track_points_in(
         .iter()
         .enumerate()
         .map(|(i, &point)| {
-            let guess = guesses.map(|g| g[i]);
-            track_point(prev, next, point, guess, params)
+            let guess = guesses.map(|g| as_library_reads(g[i]));
+            track_point(prev, next, as_library_reads(point), guess, params)
         })
         .collect()
+}
+
+/// The Q16 range: ±32768 px.
+const Q16_LIMIT: f32 = 32768.0;
+
+/// A position as [`kestrel::Point::from_f32`] reads it: NaN as 0, saturated to the Q16 range
+/// (without its 1/65536 px steps, far below the precision compared; at ±32768 an `f32` has no
+/// finer steps than that anyway).
+fn as_library_reads((x, y): (f32, f32)) -> (f32, f32) {
+    let read = |v: f32| {
+        if v.is_nan() {
+            0.0
+        } else {
+            v.clamp(-Q16_LIMIT, Q16_LIMIT)
+        }
+    };
+    (read(x), read(y))
 }
 
 /// How the iterations at one level ended.
@@ -376,6 +395,19 @@ mod tests {
         );
         assert_eq!(track[0].status, TrackStatus::OutOfBounds);
         assert_eq!(track[0].residual, 0.0);
+    }
+
+    #[test]
+    fn coordinates_are_read_as_the_library_reads_them() {
+        let a = blob(30.0, 1.0, 0.0);
+        let p = params(Illumination::Plain);
+        let nan_guess = track_points(&a, &a, &[(27.0, 30.0)], Some(&[(f32::NAN, 30.0)]), &p);
+        let zero_guess = track_points(&a, &a, &[(27.0, 30.0)], Some(&[(0.0, 30.0)]), &p);
+        assert_eq!(nan_guess, zero_guess);
+        // A NaN point is the point 0 on that axis, inside the frame.
+        let nan_point = track_points(&a, &a, &[(f32::NAN, 30.0)], None, &p)[0];
+        assert_ne!(nan_point.status, TrackStatus::OutOfBounds);
+        assert_eq!(as_library_reads((1e9, -1e9)), (32768.0, -32768.0));
     }
 
     #[test]

@@ -298,8 +298,9 @@ fn gain_and_bias_between_frames() {
     let mut plain = Errors::default();
     for seed in SEEDS {
         let (scene, first) = scene(seed);
-        // The two longer shifts: tracking twice per trial, this test does half the work again.
-        for (dx, dy) in random_shifts(seed).into_iter().skip(1) {
+        // The 20 px shift only: tracking twice per trial, plain mode mostly to exhaustion, this
+        // test would otherwise take twice as long as the others.
+        for (dx, dy) in random_shifts(seed).into_iter().skip(2) {
             let warp = Homography::translation(dx, dy);
             let trial = Trial::new(&scene, &first, &warp, lighting);
             let label = format!("seed {seed} shift ({dx:+.2}, {dy:+.2}) lit");

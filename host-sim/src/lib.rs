@@ -6,5 +6,6 @@ pub mod commands;
 pub mod frame;
 pub mod io;
 pub mod reference;
+pub mod synth;
 
 pub use frame::Frame;

@@ -1,0 +1,179 @@
+//! Scenes and frame pairs with exact ground truth.
+
+use super::homography::Homography;
+use super::render::{area_sample, Exposure, Lighting};
+use super::rng::SplitMix64;
+use super::texture::{Extent, Texture};
+use crate::Frame;
+
+/// Everything that fixes a synthetic scene and its camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneSpec {
+    /// Frame width, px.
+    pub width: usize,
+    /// Frame height, px.
+    pub height: usize,
+    /// Seed of the texture and of the noise.
+    pub seed: u64,
+    /// Standard deviation of the sensor noise, grey levels.
+    pub noise_sigma: f64,
+    /// Samples per pixel and axis when rendering (2 gives 4 samples per pixel).
+    pub supersample: usize,
+}
+
+impl SceneSpec {
+    /// A noise-free scene of `width` x `height` px rendered with 2 x 2 samples per pixel (the
+    /// texture's edges are a pixel wide, so that is enough to keep them from aliasing).
+    pub fn new(width: usize, height: usize, seed: u64) -> Self {
+        Self {
+            width,
+            height,
+            seed,
+            noise_sigma: 0.0,
+            supersample: 2,
+        }
+    }
+
+    /// The same scene with sensor noise of `sigma` grey levels.
+    pub fn with_noise(self, sigma: f64) -> Self {
+        Self {
+            noise_sigma: sigma,
+            ..self
+        }
+    }
+
+    /// The same scene rendered with `n` x `n` samples per pixel.
+    pub fn with_supersample(self, n: usize) -> Self {
+        Self {
+            supersample: n,
+            ..self
+        }
+    }
+}
+
+/// A textured plane seen by a camera. Frame 0 sees texture point (`u`, `v`) at pixel position
+/// (`u`, `v`); a frame warped by `H` sees it at `H(u, v)`.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// How the scene was made.
+    pub spec: SceneSpec,
+    /// The plane's texture.
+    pub texture: Texture,
+}
+
+impl Scene {
+    /// The scene of `spec`. The texture's shapes cover the frame and half its larger side
+    /// around it, so that moderate camera motion keeps them in view.
+    pub fn new(spec: SceneSpec) -> Self {
+        let margin = spec.width.max(spec.height) as f64 / 2.0;
+        let extent = Extent::around_frame(spec.width, spec.height, margin);
+        Self {
+            spec,
+            texture: Texture::random(spec.seed, extent),
+        }
+    }
+
+    /// The frame seen through `warp` under `lighting`. `frame_index` selects the noise, so that
+    /// two frames of one scene have independent noise and re-rendering a frame repeats it.
+    ///
+    /// Panics if `warp` is singular.
+    pub fn render(&self, warp: &Homography, lighting: Lighting, frame_index: u64) -> Frame {
+        let (w, h) = (self.spec.width, self.spec.height);
+        let inverse = warp.inverse().expect("a camera warp is invertible");
+        let radiance = area_sample(w, h, self.spec.supersample, |x, y| {
+            let (u, v) = inverse.apply(x, y);
+            self.texture.value(u, v)
+        });
+        let exposure = Exposure {
+            lighting,
+            noise_sigma: self.spec.noise_sigma,
+            noise_seed: SplitMix64::substream(self.spec.seed, 1 << 32 | frame_index).next_u64(),
+        };
+        exposure.develop(w, h, &radiance)
+    }
+}
+
+/// Two frames of the scene of `spec`: the reference view and the view through `warp`, lit alike.
+///
+/// ```
+/// use host_sim::synth::{pair, true_position, Homography, SceneSpec};
+/// let spec = SceneSpec::new(64, 48, 1).with_supersample(2);
+/// let shift = Homography::translation(2.5, -1.0);
+/// let (a, b) = pair(&spec, &shift);
+/// assert_eq!((b.width, b.height), (64, 48));
+/// assert_eq!(true_position(&shift, 10.0, 10.0), (12.5, 9.0));
+/// ```
+pub fn pair(spec: &SceneSpec, warp: &Homography) -> (Frame, Frame) {
+    pair_with_lighting(spec, warp, Lighting::UNCHANGED)
+}
+
+/// Like [`pair`], with the second frame under `lighting` (the first is unchanged).
+pub fn pair_with_lighting(
+    spec: &SceneSpec,
+    warp: &Homography,
+    lighting: Lighting,
+) -> (Frame, Frame) {
+    let scene = Scene::new(*spec);
+    let first = scene.render(&Homography::IDENTITY, Lighting::UNCHANGED, 0);
+    let second = scene.render(warp, lighting, 1);
+    (first, second)
+}
+
+/// Where the point at (`x`, `y`) in the first frame of a pair appears in the second.
+pub fn true_position(warp: &Homography, x: f32, y: f32) -> (f32, f32) {
+    let (u, v) = warp.apply(f64::from(x), f64::from(y));
+    (u as f32, v as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_same_seed_gives_identical_frames() {
+        let spec = SceneSpec::new(48, 40, 9).with_noise(1.5);
+        let warp = Homography::similarity(1.02, 0.05, (1.5, -0.5), (24.0, 20.0));
+        assert_eq!(pair(&spec, &warp), pair(&spec, &warp));
+        let other = SceneSpec { seed: 10, ..spec };
+        assert_ne!(pair(&spec, &warp).0, pair(&other, &warp).0);
+    }
+
+    #[test]
+    fn noise_differs_between_the_frames_of_a_pair() {
+        let spec = SceneSpec::new(32, 32, 2).with_noise(2.0);
+        let (a, b) = pair(&spec, &Homography::IDENTITY);
+        let differing = a.data.iter().zip(&b.data).filter(|(p, q)| p != q).count();
+        assert!(differing > a.data.len() / 2);
+    }
+
+    #[test]
+    fn an_integer_translation_shifts_the_frame() {
+        let spec = SceneSpec::new(80, 60, 4);
+        let (dx, dy) = (3, -2);
+        let (a, b) = pair(&spec, &Homography::translation(dx as f64, dy as f64));
+        for y in 5..55 {
+            for x in 5..75 {
+                let (sx, sy) = ((x - dx) as usize, (y - dy) as usize);
+                let diff = i32::from(b.at(x as usize, y as usize)) - i32::from(a.at(sx, sy));
+                assert!(diff.abs() <= 1, "({x}, {y}): {diff}");
+            }
+        }
+    }
+
+    #[test]
+    fn lighting_applies_to_the_second_frame_only() {
+        let spec = SceneSpec::new(32, 24, 6).with_supersample(2);
+        let lighting = Lighting {
+            gain: 1.25,
+            bias: 15.0,
+        };
+        let (a, b) = pair_with_lighting(&spec, &Homography::IDENTITY, lighting);
+        let (plain, _) = pair(&spec, &Homography::IDENTITY);
+        assert_eq!(a, plain);
+        for (&p, &q) in a.data.iter().zip(&b.data) {
+            // Both frames are rounded: 0.5 from q, 1.25 x 0.5 from p.
+            let expected = (1.25 * f64::from(p) + 15.0).min(255.0);
+            assert!((f64::from(q) - expected).abs() <= 1.125);
+        }
+    }
+}

@@ -1,0 +1,148 @@
+//! Frame sequences along a camera path, with the warp from frame 0 to every frame.
+
+use super::homography::Homography;
+use super::render::Lighting;
+use super::scene::Scene;
+use crate::Frame;
+
+/// A steady camera motion: per frame, a shift of the image by `pan` px, a rotation by `rotation`
+/// radians and a zoom by the factor `zoom`, both about `centre`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraPath {
+    /// Image shift per frame, px.
+    pub pan: (f64, f64),
+    /// Image rotation per frame, radians (positive turns x towards y).
+    pub rotation: f64,
+    /// Image scale factor per frame (1 for none).
+    pub zoom: f64,
+    /// Centre of the rotation and zoom, frame coordinates.
+    pub centre: (f64, f64),
+}
+
+impl CameraPath {
+    /// A camera that does not move, rotating and zooming about `centre` once given a rate.
+    pub fn still(centre: (f64, f64)) -> Self {
+        Self {
+            pan: (0.0, 0.0),
+            rotation: 0.0,
+            zoom: 1.0,
+            centre,
+        }
+    }
+
+    /// The warp from frame 0 to frame `k`: `k` frames' worth of zoom, rotation and pan.
+    ///
+    /// ```
+    /// use host_sim::synth::CameraPath;
+    /// let path = CameraPath { pan: (1.5, 0.0), ..CameraPath::still((0.0, 0.0)) };
+    /// assert_eq!(path.homography(4).apply(10.0, 10.0), (16.0, 10.0));
+    /// ```
+    pub fn homography(&self, k: usize) -> Homography {
+        let k = k as f64;
+        Homography::similarity(
+            self.zoom.powf(k),
+            self.rotation * k,
+            (self.pan.0 * k, self.pan.1 * k),
+            self.centre,
+        )
+    }
+}
+
+/// The frames a camera moving along a path sees of a scene.
+#[derive(Debug, Clone)]
+pub struct Sequence {
+    scene: Scene,
+    path: CameraPath,
+    len: usize,
+}
+
+impl Sequence {
+    /// `len` frames of `scene` along `path`.
+    pub fn new(scene: Scene, path: CameraPath, len: usize) -> Self {
+        Self { scene, path, len }
+    }
+
+    /// The number of frames.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True for a sequence without frames.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The scene being filmed.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The camera path.
+    pub fn path(&self) -> &CameraPath {
+        &self.path
+    }
+
+    /// The warp from frame 0 to frame `k`: the ground truth of every point of frame 0.
+    pub fn homography(&self, k: usize) -> Homography {
+        self.path.homography(k)
+    }
+
+    /// The warp from frame `from` to frame `to`.
+    pub fn homography_between(&self, from: usize, to: usize) -> Homography {
+        let back = self
+            .homography(from)
+            .inverse()
+            .expect("a similarity with a non-zero zoom is invertible");
+        back.then(&self.homography(to))
+    }
+
+    /// Frame `k` (rendered on demand; frame `k` always has the same noise).
+    pub fn frame(&self, k: usize) -> Frame {
+        self.scene
+            .render(&self.homography(k), Lighting::UNCHANGED, k as u64)
+    }
+
+    /// Every frame in order.
+    pub fn frames(&self) -> impl Iterator<Item = Frame> + '_ {
+        (0..self.len).map(|k| self.frame(k))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::SceneSpec;
+
+    fn sequence() -> Sequence {
+        let scene = Scene::new(SceneSpec::new(40, 30, 8).with_supersample(2));
+        let path = CameraPath {
+            pan: (0.7, -0.3),
+            rotation: 0.01,
+            zoom: 1.01,
+            centre: (20.0, 15.0),
+        };
+        Sequence::new(scene, path, 4)
+    }
+
+    #[test]
+    fn warps_between_frames_chain_up() {
+        let s = sequence();
+        let chained = s.homography_between(0, 2).then(&s.homography_between(2, 3));
+        assert!(chained.distance(&s.homography(3), 40.0, 30.0) < 1e-9);
+        assert!(s.homography(0).distance(&Homography::IDENTITY, 40.0, 30.0) < 1e-12);
+    }
+
+    #[test]
+    fn frames_repeat_and_frame_zero_is_the_unwarped_scene() {
+        let s = sequence();
+        let frames: Vec<Frame> = s.frames().collect();
+        assert_eq!(frames.len(), 4);
+        assert_eq!(frames[2], s.frame(2));
+        assert_eq!(
+            frames[0],
+            s.scene()
+                .render(&Homography::IDENTITY, Lighting::UNCHANGED, 0)
+        );
+        assert_ne!(frames[1], frames[0]);
+    }
+}

@@ -3,6 +3,7 @@
 
 pub mod args;
 pub mod flow;
+pub mod synth;
 
 use std::ffi::OsString;
 use std::fmt::Display;
@@ -26,6 +27,7 @@ Usage: host-sim <COMMAND> [options]
 
 Commands:
   flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  synth     write seeded synthetic frame pairs with exact ground truth
 
 Options:
   -h, --help       print this help; 'host-sim <COMMAND> --help' describes a command
@@ -52,6 +54,7 @@ enum Request {
     /// Print the version to stdout.
     Version,
     Flow(commands::flow::FlowOptions),
+    Synth(commands::synth::SynthOptions),
 }
 
 /// Runs `host-sim` with `args` (the program name first, as from [`std::env::args_os`]) and
@@ -85,6 +88,10 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Flow(options),
             None => Request::Print(flow::USAGE),
         }),
+        "synth" => Ok(match synth::parse_options(rest)? {
+            Some(options) => Request::Synth(options),
+            None => Request::Print(synth::USAGE),
+        }),
         other if other.starts_with('-') => Err(UsageError::new(
             other,
             "unknown flag; a command comes first (try 'host-sim --help')",
@@ -107,6 +114,7 @@ fn execute(request: Request) -> Result<(), CommandError> {
             Ok(())
         }
         Request::Flow(options) => commands::flow::run(&options),
+        Request::Synth(options) => commands::synth::run(&options),
     }
 }
 

@@ -1,6 +1,7 @@
 //! The commands host-sim runs, given already validated options.
 
 pub mod flow;
+pub mod synth;
 
 use std::fmt;
 

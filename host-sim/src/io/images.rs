@@ -52,6 +52,24 @@ pub fn decode_grey(bytes: &[u8]) -> Result<Frame, String> {
     Ok(to_grey(&image))
 }
 
+/// Encodes a grey frame as an 8-bit grey PNG.
+pub fn encode_png(frame: &Frame) -> Result<Vec<u8>, String> {
+    let (width, height) = (frame.width as u32, frame.height as u32);
+    let image = image::GrayImage::from_raw(width, height, frame.data.clone())
+        .ok_or_else(|| "frame buffer does not match its size".to_owned())?;
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut Cursor::new(&mut bytes), ImageFormat::Png)
+        .map_err(|e| format!("cannot encode PNG: {e}"))?;
+    Ok(bytes)
+}
+
+/// Writes `frame` to `path` as a grey PNG, atomically.
+pub fn write_png(path: &Path, frame: &Frame) -> Result<(), super::OutputError> {
+    let bytes = encode_png(frame).map_err(|problem| super::OutputError::new(path, problem))?;
+    super::atomic::write_atomically(path, &bytes)
+}
+
 /// Converts any decoded image to an 8-bit grey frame (see the module documentation).
 pub fn to_grey(image: &DynamicImage) -> Frame {
     let (width, height) = (image.width() as usize, image.height() as usize);

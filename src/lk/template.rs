@@ -27,6 +27,15 @@ use super::Illumination;
 /// flight is larger, and the clamp keeps a mismatched window from producing a wild step.
 const GAIN_MIN: i64 = 1 << 14;
 const GAIN_MAX: i64 = 1 << 18;
+
+/// Ridge term of the gain fit, as a variance per pixel in (grey x 32)^2: (2 grey levels)^2.
+///
+/// On a low-contrast window the least-squares gain is decided by noise and jumps between
+/// iterations, which keeps LK from converging. Adding this variance to both the covariance and
+/// the variance pulls the gain towards 1 on windows whose contrast is comparable to sensor noise
+/// (where a gain change is invisible anyway; the bias still absorbs the offset) and leaves it
+/// unchanged on textured windows.
+const GAIN_RIDGE: i128 = (2 * 32) * (2 * 32);
 const ONE: i64 = 1 << 16;
 
 /// Products summed in 32 bits before widening: the most that provably cannot overflow.
@@ -82,7 +91,7 @@ pub(crate) struct Template<'s> {
     illumination: Illumination,
     /// `1 / det(G)` (plain) or `1 / (n det(G))` (gain and bias).
     solve: Reciprocal,
-    /// `1 / (n ΣI² - (ΣI)²)`, for the gain fit; `None` when the window is flat.
+    /// `1 / (n ΣI² - (ΣI)² + n² ridge)`, for the gain fit.
     variance: Option<Reciprocal>,
 }
 
@@ -114,7 +123,9 @@ impl<'s> Template<'s> {
             .and_then(Reciprocal::of)
             .ok_or(TemplateError::LowTexture)?;
         let variance_n = n * sums.sii as i128 - sums.si as i128 * sums.si as i128;
-        let variance = u128::try_from(variance_n).ok().and_then(Reciprocal::of);
+        let variance = u128::try_from(variance_n + n * n * GAIN_RIDGE)
+            .ok()
+            .and_then(Reciprocal::of);
         Ok(Self {
             layout,
             intensity,
@@ -162,7 +173,8 @@ impl<'s> Template<'s> {
         }
     }
 
-    /// Least-squares gain of `J ~ a I + b` over the window, Q16, clamped; 1 in plain mode.
+    /// Least-squares gain of `J ~ a I + b` over the window with the [`GAIN_RIDGE`] term, Q16,
+    /// clamped; 1 in plain mode.
     fn gain(&self, m: &MatchSums) -> i64 {
         let Some(variance) = self.variance else {
             return ONE;
@@ -171,8 +183,11 @@ impl<'s> Template<'s> {
             return ONE;
         }
         let s = &self.sums;
-        let covariance = self.n() * m.sji as i128 - m.sj as i128 * s.si as i128;
-        variance.scale(covariance, 16).clamp(GAIN_MIN, GAIN_MAX)
+        let n = self.n();
+        let covariance = n * m.sji as i128 - m.sj as i128 * s.si as i128;
+        variance
+            .scale(covariance + n * n * GAIN_RIDGE, 16)
+            .clamp(GAIN_MIN, GAIN_MAX)
     }
 
     /// Mean absolute residual over the window in grey levels (Q16 raw bits), after the gain and

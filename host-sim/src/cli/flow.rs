@@ -2,7 +2,7 @@
 
 use std::ffi::OsString;
 
-use kestrel::lk::LkParams;
+use kestrel::lk::{Illumination, LkParams};
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
 use crate::commands::flow::{Engine, FlowOptions};
@@ -25,6 +25,8 @@ Options:
   --levels L        coarsest pyramid level, 0 to 7, like OpenCV's maxLevel [default: 3]
   --max-iters K     iterations per level, at least 1 [default: 30]
   --epsilon E       stop when a step is shorter than E px, finite and >= 0 [default: 0.01]
+  --illumination M  brightness model between the frames: gain-bias (fit a gain and a bias
+                    per window; robust to exposure changes) or plain [default: gain-bias]
   --reference       run the f32 reference implementation instead of the library
   --repeat N        run the core (build both pyramids, track every point) N times,
                     N >= 1 [default: 1]
@@ -55,6 +57,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--levels"),
     Flag::value("--max-iters"),
     Flag::value("--epsilon"),
+    Flag::value("--illumination"),
     Flag::switch("--reference"),
     Flag::value("--repeat"),
     Flag::value("--stats"),
@@ -106,6 +109,7 @@ fn options(matches: &Matches) -> Result<FlowOptions, UsageError> {
             MAX_ITERS,
         )? as u32,
         epsilon: matches.number("--epsilon", f64::from(defaults.epsilon), EPSILON)? as f32,
+        illumination: illumination(matches)?,
         ..defaults
     };
     let engine = if matches.switch("--reference") {
@@ -125,6 +129,18 @@ fn options(matches: &Matches) -> Result<FlowOptions, UsageError> {
     })
 }
 
+fn illumination(matches: &Matches) -> Result<Illumination, UsageError> {
+    match matches.value("--illumination").map(|v| v.to_string_lossy()) {
+        None => Ok(Illumination::default()),
+        Some(v) if v == "gain-bias" => Ok(Illumination::GainBias),
+        Some(v) if v == "plain" => Ok(Illumination::Plain),
+        Some(v) => Err(UsageError::new(
+            "--illumination",
+            format!("must be gain-bias or plain (got \"{v}\")"),
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,6 +156,21 @@ mod tests {
         parse_line(&format!("{FILES} {extra}"))
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn illumination_model_is_chosen_by_name() {
+        let plain = parse_line(&format!("{FILES} --illumination plain"));
+        assert_eq!(
+            plain.unwrap().unwrap().params.illumination,
+            Illumination::Plain
+        );
+        let default = parse_line(FILES).unwrap().unwrap();
+        assert_eq!(default.params.illumination, Illumination::GainBias);
+        assert_eq!(
+            error("--illumination sunny"),
+            "--illumination: must be gain-bias or plain (got \"sunny\")"
+        );
     }
 
     #[test]

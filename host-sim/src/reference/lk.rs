@@ -18,6 +18,9 @@ const OSCILLATION: f32 = 0.01;
 /// frames is larger, and the clamp keeps a mismatched window from producing a wild step.
 const GAIN_MIN: f32 = 0.25;
 const GAIN_MAX: f32 = 4.0;
+/// Ridge term of the gain fit, a variance per pixel in grey levels squared: (2 grey levels)^2,
+/// the same as the library's.
+const GAIN_RIDGE: f32 = 4.0;
 /// OpenCV's eigenvalue threshold is in its own scale: gradients x 32 (so `G` x 1024), and the
 /// eigenvalue divided by 2^20 * area. In grey levels per pixel that is `λ_min / (1024 area)`.
 const OPENCV_EIGEN_SCALE: f32 = 1024.0;
@@ -210,7 +213,9 @@ impl Fit {
         bias: 0.0,
     };
 
-    /// The least-squares fit of `j` against `i`, gain clamped; gain 1 on a flat template.
+    /// The least-squares fit of `j` against `i`, gain clamped, with a ridge term: both the
+    /// variance and the covariance get [`GAIN_RIDGE`] added, which pulls the gain towards 1 on
+    /// windows whose contrast is comparable to sensor noise.
     fn least_squares(i: &Window, j: &Window) -> Self {
         let (mean_i, mean_j) = (i.mean(), j.mean());
         let mut variance = 0.0;
@@ -219,11 +224,9 @@ impl Fit {
             variance += (a - mean_i) * (a - mean_i);
             covariance += (a - mean_i) * (b - mean_j);
         }
-        let gain = if variance == 0.0 {
-            1.0
-        } else {
-            (covariance / variance).clamp(GAIN_MIN, GAIN_MAX)
-        };
+        let n = i.values.len() as f32;
+        let ridge = n * GAIN_RIDGE;
+        let gain = ((covariance + ridge) / (variance + ridge)).clamp(GAIN_MIN, GAIN_MAX);
         Fit {
             gain,
             bias: mean_j - gain * mean_i,

@@ -191,8 +191,9 @@ impl Tracker {
     }
 }
 
-/// A `GRID_SIDE` x `GRID_SIDE` grid of points spread over the frame, kept clear of the border so
-/// that every window lies inside the frame at every level.
+/// A `GRID_SIDE` x `GRID_SIDE` grid of cell centres over the whole frame. The outer points sit
+/// 6-8 px from the edges, so at the coarser levels their windows cross the border, as detected
+/// corners' windows would.
 fn grid() -> [Point; POINTS] {
     // Cell centres of an even split of the frame: 8 px from the side edges, 6 px from the top.
     let cell = |i: usize, size: usize| ((2 * i + 1) * size / (2 * GRID_SIDE)) as i32;

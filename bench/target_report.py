@@ -161,6 +161,8 @@ def main(argv):
     out.append(f"  {'memory':<40} {'bytes':>12}")
     out.append(row("static RAM (.data + .bss)", mem["static_ram"]))
     out.append(row("stack high-water mark", stack["peak"], "whole run, printing included"))
+    pipeline_stack = int(per_frame["stack_peak"]) - int(per_frame["stack_at_call"])
+    out.append(row("  of which the pipeline, below its caller", pipeline_stack, "pyramid + LK"))
     out.append(row("static RAM + stack", ram_and_stack, f"budget {BUDGET_RAM_AND_STACK}"))
     out.append(row("flash without the test frames", mem["flash"], "vector table, code, constants, .data image"))
     out.append(row("  of which Kestrel (symbol sizes)", mem["library"], f"budget {BUDGET_LIBRARY_FLASH}"))

@@ -9,6 +9,7 @@ use crate::meter::{instructions, Meter};
 use crate::pipeline::{Flow, FrameError, Pipeline, POINTS};
 use crate::report::{millipx_to_q16, Px};
 use crate::scene::{FRAMES, HEIGHT, WIDTH};
+use crate::stack;
 use crate::stages::{Stage, StageTimes};
 use crate::summary::{flow_error, Summary};
 
@@ -25,7 +26,10 @@ pub fn run(pipeline: &mut Pipeline, meter: &Meter) -> bool {
     let mut sum = Summary::default();
     for index in 0..FRAMES {
         let mut times = StageTimes::default();
+        stack::repaint();
+        sum.stack_at_call = stack::depth();
         let outcome = pipeline.process(camera::frame(index), (WIDTH, HEIGHT), meter, &mut times);
+        sum.stack_peak = sum.stack_peak.max(stack::peak());
         if index == 0 {
             ok &= report_first_frame(&times, &outcome);
         } else {

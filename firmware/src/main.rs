@@ -131,6 +131,13 @@ fn fail(reason: &str) -> ! {
     }
 }
 
+/// A fault would otherwise spin in the default handler until the host's timeout.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    hprintln!("hard fault at pc {:#010x}", frame.pc());
+    fail("hard fault")
+}
+
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     hprintln!("panic {}", info);

@@ -3,7 +3,7 @@
 //! cortex-m-rt's `paint-stack` feature fills the RAM between `_stack_end` (the end of the
 //! statics) and `_stack_start` (the initial stack pointer) with a known word before `main`. The
 //! stack grows down from `_stack_start`; the lowest word that no longer holds the paint marks the
-//! deepest the stack has been.
+//! deepest the stack has been. [`repaint`] restarts the measurement for one part of the run.
 
 use cortex_m_rt::STACK_PAINT_VALUE;
 
@@ -12,13 +12,19 @@ extern "C" {
     static _stack_end: u32;
 }
 
-/// Bytes of stack used so far at the deepest point.
-pub fn peak() -> usize {
-    // Only the symbols' addresses are used; the linker script defines both.
+/// The stack's RAM: `_stack_end..._stack_start`; only the symbols' addresses are used.
+fn bounds() -> (usize, usize) {
     let bottom = core::ptr::addr_of!(_stack_end) as usize;
     let top = core::ptr::addr_of!(_stack_start) as usize;
+    (bottom, top)
+}
+
+/// Bytes of stack used at the deepest point since boot or the last [`repaint`], counted from the
+/// top of RAM.
+pub fn peak() -> usize {
+    let (bottom, top) = bounds();
     let mut word = bottom;
-    // SAFETY: every word in [bottom, top) is RAM that cortex-m-rt painted; reads are aligned.
+    // SAFETY: every word in [bottom, top) is RAM reserved for the stack; reads are aligned.
     while word < top && unsafe { core::ptr::read_volatile(word as *const u32) } == STACK_PAINT_VALUE
     {
         word += 4;
@@ -26,9 +32,35 @@ pub fn peak() -> usize {
     top - word
 }
 
+/// Bytes below the stack pointer left unpainted by [`repaint`]: the compiler may read the stack
+/// pointer before pushing this function's own frame, which must not be painted over.
+const REPAINT_GUARD: usize = 256;
+
+/// Paints the free stack below the current stack pointer again, so that the next [`peak`]
+/// measures only what runs after this call (anything deeper than [`REPAINT_GUARD`] below the
+/// caller's stack pointer).
+#[inline(never)]
+pub fn repaint() {
+    let (bottom, _) = bounds();
+    let below = (cortex_m::register::msp::read() as usize & !3).saturating_sub(REPAINT_GUARD);
+    let mut word = bottom;
+    while word < below {
+        // SAFETY: the words between the statics and the stack pointer are unused stack RAM; no
+        // interrupt is enabled that could be using them.
+        unsafe { core::ptr::write_volatile(word as *mut u32, STACK_PAINT_VALUE) };
+        word += 4;
+    }
+}
+
+/// Bytes of stack in use at this call, counted from the top of RAM.
+#[inline(always)]
+pub fn depth() -> usize {
+    let (_, top) = bounds();
+    top - cortex_m::register::msp::read() as usize
+}
+
 /// Bytes reserved for the stack: everything between the statics and the top of RAM.
 pub fn size() -> usize {
-    let bottom = core::ptr::addr_of!(_stack_end) as usize;
-    let top = core::ptr::addr_of!(_stack_start) as usize;
+    let (bottom, top) = bounds();
     top - bottom
 }

@@ -28,6 +28,10 @@ pub struct Summary {
     pub min_tracked: Option<usize>,
     /// The largest error of a frame's median flow on either axis, Q16 bits.
     pub worst_error: i32,
+    /// The deepest stack while the pipeline ran, bytes from the top of RAM.
+    pub stack_peak: usize,
+    /// Stack in use where the pipeline is called, bytes from the top of RAM.
+    pub stack_at_call: usize,
 }
 
 impl Summary {
@@ -64,13 +68,16 @@ impl Summary {
             );
         }
         hprintln!(
-            "per_frame instructions={} worst={} frames={} points={} tracked_min={} worst_error={}",
+            "per_frame instructions={} worst={} frames={} points={} tracked_min={} worst_error={} \
+             stack_peak={} stack_at_call={}",
             self.per_frame(self.times.total()),
             instructions(self.worst_frame),
             self.frames,
             POINTS,
             self.min_tracked.unwrap_or(0),
             Px(self.worst_error),
+            self.stack_peak,
+            self.stack_at_call,
         );
     }
 }

@@ -38,9 +38,10 @@ const REPAINT_GUARD: usize = 256;
 
 /// Paints the free stack below the current stack pointer again, so that the next [`peak`]
 /// measures only what runs after this call (anything deeper than [`REPAINT_GUARD`] below the
-/// caller's stack pointer).
+/// caller's stack pointer). Returns the high-water mark up to this call, which it erases.
 #[inline(never)]
-pub fn repaint() {
+pub fn repaint() -> usize {
+    let so_far = peak();
     let (bottom, _) = bounds();
     let below = (cortex_m::register::msp::read() as usize & !3).saturating_sub(REPAINT_GUARD);
     let mut word = bottom;
@@ -50,6 +51,7 @@ pub fn repaint() {
         unsafe { core::ptr::write_volatile(word as *mut u32, STACK_PAINT_VALUE) };
         word += 4;
     }
+    so_far
 }
 
 /// Bytes of stack in use at this call, counted from the top of RAM.

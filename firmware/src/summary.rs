@@ -28,10 +28,11 @@ pub struct Summary {
     pub min_tracked: Option<usize>,
     /// The largest error of a frame's median flow on either axis, Q16 bits.
     pub worst_error: i32,
-    /// The deepest stack while the pipeline ran, bytes from the top of RAM.
+    /// The stack high-water mark of the firmware from boot to the end of the run, printing
+    /// included, bytes from the top of RAM.
     pub stack_peak: usize,
-    /// Stack in use where the pipeline is called, bytes from the top of RAM.
-    pub stack_at_call: usize,
+    /// The deepest stack of the pipeline itself, bytes below the stack pointer of its caller.
+    pub pipeline_stack: usize,
 }
 
 impl Summary {
@@ -69,7 +70,7 @@ impl Summary {
         }
         hprintln!(
             "per_frame instructions={} worst={} frames={} points={} tracked_min={} worst_error={} \
-             stack_peak={} stack_at_call={}",
+             stack_peak={} pipeline_stack={}",
             self.per_frame(self.times.total()),
             instructions(self.worst_frame),
             self.frames,
@@ -77,7 +78,7 @@ impl Summary {
             self.min_tracked.unwrap_or(0),
             Px(self.worst_error),
             self.stack_peak,
-            self.stack_at_call,
+            self.pipeline_stack,
         );
     }
 }

@@ -191,6 +191,20 @@ impl<'a> ImageView<'a> {
     }
 }
 
+/// Logs the geometry only: the pixels would flood the log.
+#[cfg(feature = "defmt")]
+impl defmt::Format for ImageView<'_> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "ImageView {{ width: {=usize}, height: {=usize}, stride: {=usize} }}",
+            self.width,
+            self.height,
+            self.stride
+        );
+    }
+}
+
 /// Bytes needed for a tightly packed `width` x `height` frame.
 ///
 /// ```

@@ -209,6 +209,19 @@ impl<'a> Pyramid<'a> {
     }
 }
 
+/// Logs the base frame's geometry and the depth, not the levels' pixels.
+#[cfg(feature = "defmt")]
+impl defmt::Format for Pyramid<'_> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "Pyramid {{ base: {}, max_level: {=usize} }}",
+            self.base,
+            self.max_level
+        );
+    }
+}
+
 /// Mirrors an index into `0..n` the way OpenCV's `BORDER_REFLECT_101` does (`dcb|abcd|cba`).
 #[inline]
 pub(crate) fn reflect101(i: isize, n: usize) -> usize {

@@ -199,6 +199,7 @@ const OSCILLATION: i64 = 655;
 
 /// A validated Lucas-Kanade tracker configuration.
 #[derive(Debug, Clone, Copy)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LucasKanade {
     params: LkParams,
     /// `epsilon²` in Q32 (squared Q16 raw units).

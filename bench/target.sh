@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Kestrel on the flight-controller target: builds the firmware (firmware/), runs it on QEMU's
+# STM32F405 (netduinoplus2) and prints instructions per stage and per frame, static RAM, stack
+# high-water mark and flash for 100 tracks at 160x120. The last line is machine-readable:
+#   instructions_per_frame=<int> static_ram=<bytes> stack_peak=<bytes> flash=<bytes> tracks=<int>
+# Exits non-zero when the firmware reports a wrong result, or QEMU fails or hangs.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+target=thumbv7em-none-eabihf
+# Far above a normal run (about a second), far below CI's limit.
+run_timeout=300
+
+if ! rustup target list --installed | grep -qx "$target"; then
+    echo "adding the Rust target $target" >&2
+    rustup target add "$target"
+fi
+for tool in qemu-system-arm python3; do
+    if ! command -v "$tool" >/dev/null; then
+        echo "error: $tool is required (Debian: apt-get install qemu-system-arm python3)" >&2
+        exit 2
+    fi
+done
+
+cd "$root/firmware"
+cargo build --release
+elf="$root/firmware/target/$target/release/firmware"
+
+log="$(mktemp)"
+trap 'rm -f "$log"' EXIT
+# `cargo run` uses the QEMU runner of firmware/.cargo/config.toml, the one place that spells out
+# the machine and the instruction counting.
+status=0
+timeout --kill-after=10 "$run_timeout" cargo run --release --quiet >"$log" || status=$?
+if [ "$status" -ne 0 ]; then
+    cat "$log" >&2
+    if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then
+        echo "error: the firmware did not finish within ${run_timeout} s" >&2
+    else
+        echo "error: the firmware failed (QEMU exit status $status)" >&2
+    fi
+    exit 1
+fi
+python3 "$root/bench/target_report.py" "$elf" "$root/memory.x" "$log"

@@ -1,0 +1,35 @@
+//! Ego-motion: how the camera moved between two frames.
+//!
+//! The data flows through the submodules in this order:
+//!
+//! 1. [`model`]: translation, similarity, affine and homography models fitted to tracks by
+//!    least squares; every model is reported as a [`Homography`].
+//! 2. [`ransac`]: deterministic, bounded-time robust estimation of the dominant motion, with
+//!    an inlier count, a residual and a quality figure: [`EgoMotion`].
+//!
+//! Model fitting is `f32`: a frame has at most a few hundred tracks and the Cortex-M4F has a
+//! single-precision FPU. Inputs are validated (NaN, infinities and absurd values are rejected
+//! with a status) and outputs checked, so no NaN or infinity ever leaves the module.
+//! Nothing allocates and nothing panics; the state types are small `Copy` values.
+//!
+//! ```
+//! use kestrel::ego::{EgoStatus, Ransac, RansacParams};
+//! // Tracks on a 8 x 6 grid; the image moved 1.5 px to the right and 0.5 px down.
+//! let mut tracks = [((0.0f32, 0.0f32), (0.0f32, 0.0f32)); 48];
+//! for (i, t) in tracks.iter_mut().enumerate() {
+//!     let (x, y) = ((i % 8) as f32 * 20.0 + 10.0, (i / 8) as f32 * 20.0 + 8.0);
+//!     *t = ((x, y), (x + 1.5, y + 0.5));
+//! }
+//! let ransac = Ransac::new(RansacParams::default()).unwrap();
+//! let mut inliers = [false; 48];
+//! let motion = ransac.estimate(&tracks, &mut inliers).unwrap();
+//! assert_eq!((motion.status, motion.inliers), (EgoStatus::Ok, 48));
+//! ```
+
+mod linalg;
+
+pub mod model;
+pub mod ransac;
+
+pub use model::{fit, Correspondence, FitError, Homography, ModelKind};
+pub use ransac::{EgoMotion, EgoStatus, Ransac, RansacError, RansacParams, DEFAULT_SEED};

@@ -1,4 +1,4 @@
-//! Ego-motion: how the camera moved between two frames.
+//! Ego-motion: how the camera moved between two frames, and how much of it was rotation.
 //!
 //! The data flows through the submodules in this order:
 //!
@@ -6,6 +6,9 @@
 //!    least squares; every model is reported as a [`Homography`].
 //! 2. [`ransac`]: deterministic, bounded-time robust estimation of the dominant motion, with
 //!    an inlier count, a residual and a quality figure: [`EgoMotion`].
+//! 3. [`rotation`] and [`camera`]: gyro rotations in PX4's sensor frame, a pinhole camera with
+//!    radial distortion, and derotation: the rotational flow a gyro predicts, to seed LK in fast
+//!    turns and to remove from the measured flow.
 //!
 //! Model fitting is `f32`: a frame has at most a few hundred tracks and the Cortex-M4F has a
 //! single-precision FPU. Inputs are validated (NaN, infinities and absurd values are rejected
@@ -28,8 +31,12 @@
 
 mod linalg;
 
+pub mod camera;
 pub mod model;
 pub mod ransac;
+pub mod rotation;
 
+pub use camera::{Camera, CameraError, CameraParams};
 pub use model::{fit, Correspondence, FitError, Homography, ModelKind};
 pub use ransac::{EgoMotion, EgoStatus, Ransac, RansacError, RansacParams, DEFAULT_SEED};
+pub use rotation::{GyroError, Rotation, MAX_BODY_RATE, MAX_ROTATION};

@@ -5,7 +5,8 @@
 //! 1. [`frame`]: borrowed 8-bit grey frames ([`frame::ImageView`]).
 //! 2. [`pyramid`]: Gaussian pyramids in caller-owned storage.
 //! 3. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
-//! 4. [`ego`]: the camera's motion from the tracks (robust model fitting) and gyro derotation.
+//! 4. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
+//!    and the autopilot's OPTICAL_FLOW_RAD output.
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
 //! can place it in a `static`.

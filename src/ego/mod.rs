@@ -10,6 +10,7 @@
 //!    radial distortion, and derotation: the rotational flow a gyro predicts, to seed LK in fast
 //!    turns and to remove from the measured flow.
 //! 4. [`flow_rad`]: the MAVLink OPTICAL_FLOW_RAD accumulator, with PX4's sign conventions.
+//! 5. `mavlink` (feature `mavlink`): OPTICAL_FLOW_RAD as MAVLink 2 frames.
 //!
 //! Model fitting is `f32`: a frame has at most a few hundred tracks and the Cortex-M4F has a
 //! single-precision FPU. Inputs are validated (NaN, infinities and absurd values are rejected
@@ -43,6 +44,8 @@ mod linalg;
 
 pub mod camera;
 pub mod flow_rad;
+#[cfg(feature = "mavlink")]
+pub mod mavlink;
 pub mod model;
 pub mod ransac;
 pub mod rotation;

@@ -6,10 +6,12 @@
 //! squared threshold. The lowest cost wins. After each improvement the iteration budget shrinks
 //! to the usual `log(1 - confidence) / log(1 - w^s)` for inlier share `w` and sample size `s`,
 //! never beyond [`RansacParams::max_iterations`]; every draw counts, degenerate ones too, so the
-//! work is at most `max_iterations x tracks` transfer errors plus three passes for the refit.
+//! work is at most `max_iterations x tracks` transfer errors, plus `MAX_REFITS` refits of
+//! four passes each.
 //!
-//! The best model is then refined: a least-squares fit on its inliers, a second inlier pass,
-//! and a second fit, each kept only if it does not raise the cost. The generator restarts from
+//! The best model is then refined: a least-squares fit on its inliers, a new inlier pass, and
+//! so on until the inlier set stops changing (at most [`MAX_REFITS`] fits), each fit kept only
+//! if it does not raise the cost. The generator restarts from
 //! the seed on every call, so the same tracks always give the same result, bit for bit, on the
 //! host and on the target alike.
 //!
@@ -42,6 +44,10 @@ pub const DEFAULT_SEED: u64 = 0x4B45_5354_5245_4C21;
 
 /// Inliers from which the count no longer limits [`EgoMotion::quality`].
 pub const FULL_SUPPORT: u16 = 32;
+
+/// Least-squares refits after the sampling, at most: each one moves the inlier set towards the
+/// consensus of the whole frame, and the set usually stops changing after two or three.
+pub const MAX_REFITS: usize = 8;
 
 /// How a motion estimate came out.
 ///
@@ -372,7 +378,8 @@ impl Ransac {
         (best, iterations)
     }
 
-    /// Least-squares refits on the inliers, each kept unless it raises the cost; `flags` ends
+    /// Least-squares refits on the inliers, repeated while the inlier set changes (at most
+    /// [`MAX_REFITS`] times) and kept only when they do not raise the cost; `flags` ends
     /// marking the inliers of the returned model.
     fn refine<C: Correspondence>(
         &self,
@@ -380,9 +387,8 @@ impl Ransac {
         flags: &mut [bool],
         mut model: Homography,
     ) -> Result<Homography, EgoStatus> {
-        const REFITS: usize = 2;
         let mut cost = self.mark(pairs, &model, flags).cost;
-        for _ in 0..REFITS {
+        for _ in 0..MAX_REFITS {
             let selected = pairs
                 .iter()
                 .zip(flags.iter())
@@ -397,7 +403,11 @@ impl Ransac {
             match self.score(pairs, &refit, f32::INFINITY) {
                 Some((_, refit_cost)) if refit_cost <= cost => {
                     model = refit;
-                    cost = self.mark(pairs, &model, flags).cost;
+                    let score = self.mark(pairs, &model, flags);
+                    cost = score.cost;
+                    if !score.changed {
+                        break;
+                    }
                 }
                 _ => break,
             }
@@ -439,8 +449,10 @@ impl Ransac {
         let mut score = Score::default();
         for (c, flag) in pairs.iter().zip(flags.iter_mut()) {
             let error_sq = model.transfer_error_sq(&Pair::of(c));
-            *flag = error_sq < self.threshold_sq;
-            if *flag {
+            let inlier = error_sq < self.threshold_sq;
+            score.changed |= inlier != *flag;
+            *flag = inlier;
+            if inlier {
                 score.inliers += 1;
                 score.inlier_error_sq += error_sq;
                 score.cost += error_sq;
@@ -500,6 +512,8 @@ struct Score {
     inliers: usize,
     cost: f32,
     inlier_error_sq: f32,
+    /// Whether marking changed any flag.
+    changed: bool,
 }
 
 /// SplitMix64 (Steele, Lea and Flood): tiny, fast and statistically sound for sampling.

@@ -64,9 +64,10 @@ pub enum EgoStatus {
     /// Fewer tracks than the consensus minimum ([`RansacParams::min_inliers`], and at least one
     /// more than the model's minimal sample).
     TooFewTracks,
-    /// The tracks cannot determine the model: coincident, collinear, or every sample singular.
+    /// The tracks cannot determine the model: they coincide (similarity and up), or lie on a
+    /// line (affine and homography), all of them or those of the consensus.
     Degenerate,
-    /// No model gathered the consensus minimum of inliers.
+    /// No model drawn gathered the consensus minimum of inliers.
     NoConsensus,
     /// Invalid input: a NaN, infinite or out-of-range coordinate or gyro value, or a zero or
     /// absurd frame interval.
@@ -316,8 +317,9 @@ impl Ransac {
             return failed(EgoStatus::Degenerate, 0);
         }
         let (best, iterations) = self.search(pairs);
+        // No sample gave a plausible model: bad luck or no structure, not singular data.
         let Some(best) = best else {
-            return failed(EgoStatus::Degenerate, iterations);
+            return failed(EgoStatus::NoConsensus, iterations);
         };
         if best.inliers < self.min_consensus() {
             return failed(EgoStatus::NoConsensus, iterations);

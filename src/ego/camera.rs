@@ -18,7 +18,7 @@
 //! assert!((x - 79.5).abs() < 1e-3 && (y - 63.66).abs() < 0.01);
 //! ```
 
-use super::model::{Homography, MAX_COORDINATE};
+use super::model::{to_point, Homography, MAX_COORDINATE};
 use super::rotation::Rotation;
 use crate::q16::Point;
 
@@ -307,8 +307,8 @@ impl Camera {
         for (point, guess) in points.iter().zip(guesses.iter_mut()) {
             *guess = self
                 .predict(rotation, point.to_f32())
-                .filter(|&(x, y)| x.abs() < 32_767.0 && y.abs() < 32_767.0)
-                .map_or(*point, |(x, y)| Point::from_f32(x, y));
+                .and_then(to_point)
+                .unwrap_or(*point);
         }
         Ok(())
     }

@@ -271,9 +271,7 @@ impl Homography {
     /// assert_eq!(h.apply_point(Point::from_f32(1.0, 2.0)), Some(Point::from_f32(1.5, 2.0)));
     /// ```
     pub fn apply_point(&self, p: Point) -> Option<Point> {
-        let (x, y) = self.apply(p.to_f32())?;
-        let limit = 32_767.0;
-        (x.abs() < limit && y.abs() < limit).then(|| Point::from_f32(x, y))
+        to_point(self.apply(p.to_f32())?)
     }
 
     /// The inverse map; `None` when the matrix is singular at `f32` precision or the inverse
@@ -667,6 +665,12 @@ impl Normalisation {
         let (s, (cx, cy)) = (1.0 / self.scale, self.centre);
         [s, 0.0, cx, 0.0, s, cy, 0.0, 0.0, 1.0]
     }
+}
+
+/// The position as a Q16 point, `None` outside the Q16 range.
+pub(super) fn to_point((x, y): (f32, f32)) -> Option<Point> {
+    const LIMIT: f32 = 32_767.0;
+    (x.abs() < LIMIT && y.abs() < LIMIT).then(|| Point::from_f32(x, y))
 }
 
 fn mean<I: Iterator<Item = (f32, f32)>>(points: I) -> Option<(f32, f32)> {

@@ -23,9 +23,21 @@ use super::rotation::Rotation;
 use crate::q16::Point;
 
 /// The focal length range accepted, pixels.
+///
+/// ```
+/// use kestrel::ego::camera::FOCAL_RANGE;
+/// assert!(FOCAL_RANGE.contains(&138.6) && !FOCAL_RANGE.contains(&0.0));
+/// ```
 pub const FOCAL_RANGE: core::ops::RangeInclusive<f32> = 1.0..=100_000.0;
 
 /// The largest distortion coefficient magnitude accepted.
+///
+/// ```
+/// use kestrel::ego::camera::MAX_DISTORTION;
+/// use kestrel::ego::{Camera, CameraError, CameraParams};
+/// let p = CameraParams { k2: -2.0 * MAX_DISTORTION, ..CameraParams::from_horizontal_fov(64, 48, 1.0) };
+/// assert_eq!(Camera::new(p).unwrap_err(), CameraError::BadDistortion);
+/// ```
 pub const MAX_DISTORTION: f32 = 10.0;
 
 /// Fixed-point iterations allowed to undistort a point.
@@ -118,6 +130,12 @@ impl core::fmt::Display for CameraError {
 }
 
 /// A validated pinhole camera.
+///
+/// ```
+/// use kestrel::ego::{Camera, CameraParams};
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0)).unwrap();
+/// assert_eq!(camera.undistort((12.0, 34.0)), Some((12.0, 34.0)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Camera {

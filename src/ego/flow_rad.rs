@@ -43,6 +43,15 @@ use super::ransac::{EgoMotion, EgoStatus};
 use super::rotation::Rotation;
 
 /// The longest frame interval accepted, microseconds.
+///
+/// ```
+/// use kestrel::ego::flow_rad::MAX_INTERVAL_US;
+/// use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind};
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(64, 64, 1.0)).unwrap();
+/// let mut acc = FlowRadAccumulator::new(camera, 0);
+/// let still = EgoMotion { quality: 100, ..EgoMotion::failed(ModelKind::Homography, EgoStatus::Ok) };
+/// assert_eq!(acc.add(&still, MAX_INTERVAL_US + 1, None), EgoStatus::BadInput);
+/// ```
 pub const MAX_INTERVAL_US: u32 = 1_000_000;
 
 /// One OPTICAL_FLOW_RAD reading (MAVLink message 106), in the sensor frame.
@@ -124,7 +133,19 @@ impl OpticalFlowRad {
 /// The readout's `quality` is the rounded mean of the frames' [`EgoMotion::quality`], or 0 when
 /// no frame was added or any frame since the last readout was unusable (a motion estimate that
 /// was not `Ok`, a bad interval or a bad gyro reading): the flow integral would then miss part
-/// of the integration time. See the module example.
+/// of the integration time. See also the module example.
+///
+/// ```
+/// use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind};
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(64, 64, 1.0)).unwrap();
+/// let mut acc = FlowRadAccumulator::new(camera, 0);
+/// let still = EgoMotion { quality: 120, ..EgoMotion::failed(ModelKind::Homography, EgoStatus::Ok) };
+/// for _ in 0..4 {
+///     acc.add(&still, 2_500, Some([0.0; 3]));
+/// }
+/// let flow = acc.readout(10_000);
+/// assert_eq!((flow.integration_time_us, flow.quality, flow.integrated_x), (10_000, 120, 0.0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FlowRadAccumulator {

@@ -21,10 +21,21 @@ use mavlink::dialects::common::OPTICAL_FLOW_RAD_DATA;
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 
 /// OPTICAL_FLOW_RAD's message id.
+///
+/// ```
+/// use kestrel::ego::mavlink::OPTICAL_FLOW_RAD_ID;
+/// assert_eq!(OPTICAL_FLOW_RAD_ID, 106);
+/// ```
 pub const OPTICAL_FLOW_RAD_ID: u32 = 106;
 
 /// The longest OPTICAL_FLOW_RAD frame: 10 header bytes, a 44-byte payload, 2 CRC bytes
 /// (unsigned; MAVLink 2 trims trailing zero bytes of the payload, so frames are often shorter).
+///
+/// ```
+/// use kestrel::ego::mavlink::MAX_FRAME_LEN;
+/// static mut TX: [u8; MAX_FRAME_LEN] = [0; MAX_FRAME_LEN];
+/// assert_eq!(MAX_FRAME_LEN, 10 + 44 + 2);
+/// ```
 pub const MAX_FRAME_LEN: usize = 56;
 
 /// The sender fields of a MAVLink frame header.
@@ -70,7 +81,15 @@ impl core::fmt::Display for EncodeError {
 /// Writes `flow` as an unsigned MAVLink 2 OPTICAL_FLOW_RAD frame at the start of `buf` and
 /// returns its length. A missing gyro is sent as NaN, an unknown distance as -1.
 ///
-/// See the module example.
+/// ```
+/// use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
+/// use kestrel::ego::OpticalFlowRad;
+/// let flow = OpticalFlowRad { integrated_x: 0.01, quality: 150, ..Default::default() };
+/// let header = MavlinkHeader { system_id: 1, component_id: 100, sequence: 9 };
+/// let mut buf = [0u8; 64];
+/// let len = encode_optical_flow_rad(&flow, header, &mut buf).unwrap();
+/// assert_eq!((len, buf[1], buf[4]), (MAX_FRAME_LEN, 44, 9)); // length, payload, sequence
+/// ```
 pub fn encode_optical_flow_rad(
     flow: &OpticalFlowRad,
     header: MavlinkHeader,

@@ -37,6 +37,12 @@ use super::linalg::{mul3, solve, sqrt};
 use crate::q16::Point;
 
 /// The largest coordinate magnitude accepted, in pixels (twice the Q16 range).
+///
+/// ```
+/// use kestrel::ego::{fit, model::MAX_COORDINATE, FitError, ModelKind};
+/// let far = [((MAX_COORDINATE * 2.0, 0.0), (0.0, 0.0))];
+/// assert_eq!(fit(ModelKind::Translation, &far), Err(FitError::BadInput));
+/// ```
 pub const MAX_COORDINATE: f32 = 65_536.0;
 
 /// Points closer than this to their centroid (RMS, pixels) determine no rotation or scale.

@@ -6,14 +6,13 @@
 //! squared threshold. The lowest cost wins. After each improvement the iteration budget shrinks
 //! to the usual `log(1 - confidence) / log(1 - w^s)` for inlier share `w` and sample size `s`,
 //! never beyond [`RansacParams::max_iterations`]; every draw counts, degenerate ones too, so the
-//! work is at most `max_iterations x tracks` transfer errors, plus `MAX_REFITS` refits of
+//! work is at most `max_iterations x tracks` transfer errors, plus [`MAX_REFITS`] refits of
 //! four passes each.
 //!
 //! The best model is then refined: a least-squares fit on its inliers, a new inlier pass, and
 //! so on until the inlier set stops changing (at most [`MAX_REFITS`] fits), each fit kept only
-//! if it does not raise the cost. The generator restarts from
-//! the seed on every call, so the same tracks always give the same result, bit for bit, on the
-//! host and on the target alike.
+//! if it does not raise the cost. The generator restarts from the seed on every call, so the
+//! same tracks always give the same result, bit for bit, on the host and on the target alike.
 //!
 //! ```
 //! use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
@@ -40,13 +39,28 @@ use super::linalg::sqrt;
 use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair};
 
 /// The generator seed used unless the parameters say otherwise.
+///
+/// ```
+/// use kestrel::ego::{RansacParams, DEFAULT_SEED};
+/// assert_eq!(RansacParams::default().seed, DEFAULT_SEED);
+/// ```
 pub const DEFAULT_SEED: u64 = 0x4B45_5354_5245_4C21;
 
 /// Inliers from which the count no longer limits [`EgoMotion::quality`].
+///
+/// ```
+/// use kestrel::ego::ransac::FULL_SUPPORT;
+/// assert_eq!(FULL_SUPPORT, 32);
+/// ```
 pub const FULL_SUPPORT: u16 = 32;
 
 /// Least-squares refits after the sampling, at most: each one moves the inlier set towards the
 /// consensus of the whole frame, and the set usually stops changing after two or three.
+///
+/// ```
+/// use kestrel::ego::ransac::MAX_REFITS;
+/// assert!(MAX_REFITS >= 2);
+/// ```
 pub const MAX_REFITS: usize = 8;
 
 /// How a motion estimate came out.
@@ -220,7 +234,14 @@ impl core::fmt::Display for RansacError {
 /// The largest inlier threshold accepted, pixels.
 const MAX_THRESHOLD: f32 = 1000.0;
 
-/// A validated robust estimator.
+/// A validated robust estimator: parameters checked once, reused for every frame.
+///
+/// ```
+/// use kestrel::ego::{ModelKind, Ransac, RansacParams};
+/// let params = RansacParams { model: ModelKind::Similarity, threshold: 0.8, ..Default::default() };
+/// let ransac = Ransac::new(params).unwrap();
+/// assert_eq!(ransac.params().model, ModelKind::Similarity);
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Ransac {
     params: RansacParams,

@@ -27,10 +27,22 @@
 use super::linalg::sqrt;
 
 /// The largest body rate accepted, rad/s (above the 2000 °/s full scale of common MEMS gyros).
+///
+/// ```
+/// use kestrel::ego::{Rotation, MAX_BODY_RATE};
+/// assert!(Rotation::from_body_rates([MAX_BODY_RATE, 0.0, 0.0], 1_000).is_ok());
+/// assert!(Rotation::from_body_rates([MAX_BODY_RATE * 1.01, 0.0, 0.0], 1_000).is_err());
+/// ```
 pub const MAX_BODY_RATE: f32 = 40.0;
 
 /// The largest rotation over one frame interval accepted, rad. Beyond it the two frames hardly
 /// overlap with a typical lens.
+///
+/// ```
+/// use kestrel::ego::{Rotation, MAX_ROTATION};
+/// assert!(Rotation::from_vector([0.0, 0.0, MAX_ROTATION]).is_ok());
+/// assert!(Rotation::from_vector([0.0, 0.0, MAX_ROTATION + 0.01]).is_err());
+/// ```
 pub const MAX_ROTATION: f32 = 1.0;
 
 /// Why a gyro reading was rejected.

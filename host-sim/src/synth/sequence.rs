@@ -96,6 +96,49 @@ impl Sequence {
         back.then(&self.homography(to))
     }
 
+    /// The plane point seen at pixel position `pixel` of frame `k`.
+    pub fn plane_point(&self, k: usize, pixel: (f64, f64)) -> (f64, f64) {
+        self.homography(k)
+            .inverse()
+            .expect("a similarity with a non-zero zoom is invertible")
+            .apply(pixel.0, pixel.1)
+    }
+
+    /// The index of the object seen at pixel position `pixel` of frame `k`, or `None` where
+    /// the background shows.
+    pub fn object_at(&self, k: usize, pixel: (f64, f64)) -> Option<usize> {
+        let (u, v) = self.plane_point(k, pixel);
+        self.scene.object_at(k as f64, u, v)
+    }
+
+    /// Where the scene point seen at pixel position `pixel` of frame `from` is seen in frame
+    /// `to`: the background moves with the camera, a point of an object with the object too.
+    ///
+    /// ```
+    /// use host_sim::synth::{CameraPath, MovingObject, Scene, SceneSpec, Sequence, Surface};
+    /// let object = MovingObject {
+    ///     half_size: (8.0, 8.0),
+    ///     start: (20.0, 20.0),
+    ///     velocity: (1.0, 0.0),
+    ///     surface: Surface::Flat(250.0),
+    /// };
+    /// let scene = Scene::new(SceneSpec::new(64, 48, 1)).with_objects(vec![object]);
+    /// let path = CameraPath { pan: (0.5, 0.0), ..CameraPath::still((32.0, 24.0)) };
+    /// let sequence = Sequence::new(scene, path, 10);
+    /// // On the object: its motion and the camera's.
+    /// assert_eq!(sequence.true_position(0, (20.0, 20.0), 4), (26.0, 20.0));
+    /// // On the background: the camera's only.
+    /// assert_eq!(sequence.true_position(0, (50.0, 20.0), 4), (52.0, 20.0));
+    /// ```
+    pub fn true_position(&self, from: usize, pixel: (f64, f64), to: usize) -> (f64, f64) {
+        let point = self.plane_point(from, pixel);
+        let (u, v) = match self.object_at(from, pixel) {
+            Some(i) => self.scene.objects[i].carry(point, from as f64, to as f64),
+            None => point,
+        };
+        self.homography(to).apply(u, v)
+    }
+
     /// Frame `k` (rendered on demand; frame `k` always has the same noise).
     pub fn frame(&self, k: usize) -> Frame {
         self.scene

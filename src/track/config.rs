@@ -64,6 +64,8 @@ pub struct TrackerConfig {
     pub detect_level: usize,
     /// Bucketing of new corners over the frame; live tracks count against their cell.
     pub grid: Grid,
+    /// New corners keep this far from the frame's edges, px at full resolution.
+    pub border: u16,
     /// New corners keep this far from live tracks and from each other, px at full resolution
     /// (a square of this radius, rounded out to the exclusion mask's cells).
     pub min_distance: u16,
@@ -76,12 +78,31 @@ pub struct TrackerConfig {
     /// what the forward-backward check cannot: a window stuck on an occluder moves nowhere in
     /// both directions. `f32::INFINITY` turns it off.
     pub max_residual: f32,
+    /// Relative residual gate: a track whose residual is more than this many times the
+    /// median residual of the frame's tracks (taken as at least one grey level) is dropped.
+    /// The median measures what noise, blur and interpolation cost every track in this frame,
+    /// so the gate follows the camera: an occluder edge entering a window stands out from it
+    /// long before it reaches [`TrackerConfig::max_residual`]. `f32::INFINITY` turns it off.
+    pub residual_ratio: f32,
+    /// Appearance gate: a track whose neighbourhood (7 x 7 samples, 2 px apart) correlates
+    /// less than this with its neighbourhood in its first frame is dropped (zero-mean
+    /// normalised cross-correlation, so lighting does not matter). It catches a window that
+    /// slides off its feature a little every frame, as when an occluder's edge pushes it:
+    /// each step matches its previous frame, so no other gate sees it. At most 1; -1 turns it
+    /// off.
+    pub min_correlation: f32,
 }
 
 impl Default for TrackerConfig {
+    /// OpenCV's LK settings, except the minimum eigenvalue: 1e-3 instead of 1e-4. LK can
+    /// follow a window 10 times weaker, but on a nearly flat window it follows the noise and
+    /// slides by several pixels in a hundred frames without any gate noticing.
     fn default() -> Self {
         Self {
-            lk: LkParams::default(),
+            lk: LkParams {
+                min_eigen_threshold: 1e-3,
+                ..LkParams::default()
+            },
             max_tracks: 100,
             refill_below: 80,
             detector: Detector::default(),
@@ -91,9 +112,12 @@ impl Default for TrackerConfig {
                 rows: 6,
                 per_cell: 3,
             },
-            min_distance: 8,
+            border: 8,
+            min_distance: 5,
             fb_threshold: 1.0,
             max_residual: 12.0,
+            residual_ratio: 3.0,
+            min_correlation: 0.8,
         }
     }
 }
@@ -138,10 +162,18 @@ impl TrackerConfig {
                 bits * bits
             });
         let max_residual = gate(self.max_residual).ok_or(TrackerError::BadMaxResidual)?;
+        let residual_ratio = gate(self.residual_ratio).ok_or(TrackerError::BadMaxResidual)?;
+        let min_correlation = match self.min_correlation {
+            c if c.is_nan() || c > 1.0 => return Err(TrackerError::BadMinCorrelation),
+            c if c <= -1.0 => None,
+            c => Some(c),
+        };
         Ok(Checked {
             lk,
             fb_limit_sq,
             max_residual,
+            residual_ratio,
+            min_correlation,
         })
     }
 }
@@ -166,6 +198,10 @@ pub(super) struct Checked {
     pub fb_limit_sq: Option<i64>,
     /// The residual gate; `None` when off.
     pub max_residual: Option<Q16>,
+    /// The relative residual gate; `None` when off.
+    pub residual_ratio: Option<Q16>,
+    /// The appearance gate; `None` when off.
+    pub min_correlation: Option<f32>,
 }
 
 #[cfg(test)]

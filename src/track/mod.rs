@@ -60,9 +60,11 @@
 //! }
 //! ```
 
+mod anchor;
 mod buffers;
 mod config;
 mod fingerprint;
+mod follow;
 mod refill;
 
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
@@ -70,12 +72,14 @@ pub use config::{Detector, TrackerConfig};
 
 use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};
-use crate::lk::{scratch_len, LkError, PointTrack};
+use crate::lk::{scratch_len, LkError};
 use crate::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
 use crate::q16::{Point, Q16};
+use anchor::Anchor;
 use buffers::StorageParts;
 use config::Checked;
 use fingerprint::Fingerprint;
+use follow::Follow;
 use heapless::Vec;
 use refill::DetectBuffers;
 
@@ -119,6 +123,8 @@ pub struct FrameReport {
     pub dropped_fb: usize,
     /// Tracks dropped by the residual gate.
     pub dropped_residual: usize,
+    /// Tracks dropped because they no longer look like the feature they were born on.
+    pub dropped_appearance: usize,
     /// Tracks LK lost: out of the frame, too little texture, or not converged.
     pub dropped_lost: usize,
     /// New tracks started in this frame.
@@ -136,7 +142,7 @@ impl FrameReport {
     /// assert_eq!(r.dropped(), 6);
     /// ```
     pub fn dropped(&self) -> usize {
-        self.dropped_fb + self.dropped_residual + self.dropped_lost
+        self.dropped_fb + self.dropped_residual + self.dropped_appearance + self.dropped_lost
     }
 }
 
@@ -156,8 +162,10 @@ pub enum TrackerError {
     BadDetectLevel,
     /// `fb_threshold` is NaN or negative.
     BadFbThreshold,
-    /// `max_residual` is NaN or negative.
+    /// `max_residual` or `residual_ratio` is NaN or negative.
     BadMaxResidual,
+    /// `min_correlation` is NaN or above 1.
+    BadMinCorrelation,
     /// The frame size is zero or larger than [`MAX_DIMENSION`].
     BadFrameSize,
     /// [`TrackerBuffers::storage`] is shorter than [`tracker_storage_len`].
@@ -191,7 +199,10 @@ impl core::fmt::Display for TrackerError {
             TrackerError::BadFbThreshold => {
                 f.write_str("forward-backward threshold must be a number >= 0")
             }
-            TrackerError::BadMaxResidual => f.write_str("max residual must be a number >= 0"),
+            TrackerError::BadMaxResidual => {
+                f.write_str("max residual and residual ratio must be numbers >= 0")
+            }
+            TrackerError::BadMinCorrelation => f.write_str("min correlation must be a number <= 1"),
             TrackerError::BadFrameSize => f.write_str("frame size must be 1 to 4096 px per side"),
             TrackerError::StorageTooSmall => {
                 f.write_str("tracker storage is smaller than tracker_storage_len")
@@ -215,14 +226,6 @@ impl core::fmt::Display for TrackerError {
             TrackerError::Pyramid(e) => write!(f, "tracker pyramid: {e}"),
         }
     }
-}
-
-/// Why a track was dropped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Rejection {
-    Lost,
-    Residual,
-    ForwardBackward,
 }
 
 /// The previous frame, as far as the tracker remembers it.
@@ -287,6 +290,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             buffers,
             set: TrackSet {
                 tracks: Vec::new(),
+                anchors: Vec::new(),
                 next_id: 0,
             },
             next_frame: 0,
@@ -313,7 +317,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         let pyramid = Pyramid::build(frame, levels, storage).map_err(TrackerError::Pyramid)?;
 
         // A restart ends the previous frame's tracks; they are not counted as dropped.
-        self.set.tracks.clear();
+        self.set.clear();
         let mut report = FrameReport::default();
         let detect = DetectBuffers {
             fast_rows,
@@ -374,7 +378,12 @@ impl<'a, const N: usize> Tracker<'a, N> {
             predict,
         };
         follow
-            .all(&mut self.set.tracks, self.buffers.lk_scratch, &mut report)
+            .all(
+                &mut self.set.tracks,
+                &mut self.set.anchors,
+                self.buffers.lk_scratch,
+                &mut report,
+            )
             .map_err(TrackerError::Lk)?;
         if self.set.tracks.len() < self.config.refill_below {
             let detect = DetectBuffers {
@@ -479,14 +488,21 @@ impl<'a, const N: usize> Tracker<'a, N> {
     }
 }
 
-/// The live tracks and the id the next new one gets.
+/// The live tracks, their anchors (in the same order) and the id the next new one gets.
 #[derive(Debug)]
 struct TrackSet<const N: usize> {
     tracks: Vec<Track, N>,
+    anchors: Vec<Anchor, N>,
     next_id: u32,
 }
 
 impl<const N: usize> TrackSet<N> {
+    /// Ends every track.
+    fn clear(&mut self) {
+        self.tracks.clear();
+        self.anchors.clear();
+    }
+
     /// Detects on `pyramid` of a frame of `size` and starts new tracks, born in frame `born`,
     /// up to `config.max_tracks`.
     fn refill(
@@ -514,7 +530,8 @@ impl<const N: usize> TrackSet<N> {
                 residual: Q16::ZERO,
                 born,
             };
-            if self.tracks.push(track).is_err() {
+            let anchor = Anchor::capture(&pyramid.base(), corner.position);
+            if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
                 break;
             }
             self.next_id = self.next_id.wrapping_add(1);
@@ -548,115 +565,4 @@ fn check_buffers(
         return Err(TrackerError::DetectScratchTooSmall);
     }
     Ok(())
-}
-
-/// One frame's step for every track: LK forwards, the gates, LK backwards.
-struct Follow<'p, 'f> {
-    checked: &'p Checked,
-    prev: &'p Pyramid<'f>,
-    next: &'p Pyramid<'f>,
-    predict: Option<&'p dyn Fn(Point) -> Point>,
-}
-
-impl Follow<'_, '_> {
-    /// Moves every track that passes into the next frame and drops the others, keeping order.
-    fn all<const N: usize>(
-        &self,
-        tracks: &mut Vec<Track, N>,
-        scratch: &mut [i16],
-        report: &mut FrameReport,
-    ) -> Result<(), LkError> {
-        let mut failure = None;
-        tracks.retain_mut(|track| match self.one(track.position, scratch) {
-            Ok(Ok(step)) => {
-                track.position = step.position;
-                track.residual = step.residual;
-                track.age = track.age.saturating_add(1);
-                report.tracked += 1;
-                true
-            }
-            Ok(Err(reason)) => {
-                match reason {
-                    Rejection::Lost => report.dropped_lost += 1,
-                    Rejection::Residual => report.dropped_residual += 1,
-                    Rejection::ForwardBackward => report.dropped_fb += 1,
-                }
-                false
-            }
-            Err(error) => {
-                failure = Some(error);
-                true
-            }
-        });
-        failure.map_or(Ok(()), Err)
-    }
-
-    /// The step of the track at `start`, or why it is dropped.
-    fn one(
-        &self,
-        start: Point,
-        scratch: &mut [i16],
-    ) -> Result<Result<PointTrack, Rejection>, LkError> {
-        let lk = &self.checked.lk;
-        let guess = self.predict.map(|predict| predict(start));
-        let forward = lk.track_point(self.prev, self.next, start, guess, scratch)?;
-        if !forward.is_tracked() {
-            return Ok(Err(Rejection::Lost));
-        }
-        // Cheaper than the way back, so it goes first.
-        if self
-            .checked
-            .max_residual
-            .is_some_and(|max| forward.residual > max)
-        {
-            return Ok(Err(Rejection::Residual));
-        }
-        let Some(limit_sq) = self.checked.fb_limit_sq else {
-            return Ok(Ok(forward));
-        };
-        // Undo the predicted displacement too, so that the way back starts as close to the
-        // answer as the way forth did.
-        let back_guess = guess.map(|g| offset(forward.position, start, g));
-        let backward =
-            lk.track_point(self.next, self.prev, forward.position, back_guess, scratch)?;
-        if !backward.is_tracked() || distance_sq(backward.position, start) > limit_sq {
-            return Ok(Err(Rejection::ForwardBackward));
-        }
-        Ok(Ok(forward))
-    }
-}
-
-/// `p + (a - b)`, saturating.
-fn offset(p: Point, a: Point, b: Point) -> Point {
-    let shift = |p: Q16, a: Q16, b: Q16| p.saturating_add(a.saturating_sub(b));
-    Point::new(shift(p.x, a.x, b.x), shift(p.y, a.y, b.y))
-}
-
-/// Squared distance in squared Q16 units, saturating.
-fn distance_sq(a: Point, b: Point) -> i64 {
-    let dx = i64::from(a.x.to_bits()) - i64::from(b.x.to_bits());
-    let dy = i64::from(a.y.to_bits()) - i64::from(b.y.to_bits());
-    dx.saturating_mul(dx).saturating_add(dy.saturating_mul(dy))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn offsets_and_distances_saturate() {
-        let p = Point::from_f32(10.0, 10.0);
-        let moved = offset(p, Point::from_f32(1.0, 2.0), Point::from_f32(3.0, 1.0));
-        assert_eq!(moved, Point::from_f32(8.0, 11.0));
-        let far = offset(
-            p,
-            Point::from_f32(32000.0, 0.0),
-            Point::from_f32(-32000.0, 0.0),
-        );
-        assert_eq!(far.x, Q16::MAX);
-        let corner = Point::from_bits(i32::MIN, i32::MIN);
-        let other = Point::from_bits(i32::MAX, i32::MAX);
-        assert_eq!(distance_sq(corner, other), i64::MAX);
-        assert_eq!(distance_sq(p, Point::from_f32(13.0, 14.0)), 25 << 32);
-    }
 }

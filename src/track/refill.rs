@@ -36,7 +36,10 @@ pub(super) fn new_corners<'b>(
     for &p in live {
         mask.exclude_around(at_level(p, level), radius);
     }
-    let region = Region::full(level_image);
+    // Keep new corners far enough from the edge that most of their window sees the frame:
+    // LK repeats the edge pixels beyond it, a pattern that does not move with the scene.
+    let border = usize::from(config.border).div_ceil(1 << level);
+    let region = Region::full(level_image).clip(level_image.width(), level_image.height(), border);
     let found = match &config.detector {
         Detector::Fast(fast) => fast.detect(
             level_image,

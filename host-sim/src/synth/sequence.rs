@@ -131,8 +131,24 @@ impl Sequence {
     /// assert_eq!(sequence.true_position(0, (50.0, 20.0), 4), (52.0, 20.0));
     /// ```
     pub fn true_position(&self, from: usize, pixel: (f64, f64), to: usize) -> (f64, f64) {
+        self.true_position_on(self.object_at(from, pixel), from, pixel, to)
+    }
+
+    /// Like [`Sequence::true_position`] for a point of a given layer: the background (`None`)
+    /// or object `i` (`Some(i)`), wherever it is seen. A corner on an object's outline belongs
+    /// to no one layer: the object's edge moves with the object, the pixels beside it with the
+    /// background.
+    ///
+    /// Panics if there is no object `i`.
+    pub fn true_position_on(
+        &self,
+        layer: Option<usize>,
+        from: usize,
+        pixel: (f64, f64),
+        to: usize,
+    ) -> (f64, f64) {
         let point = self.plane_point(from, pixel);
-        let (u, v) = match self.object_at(from, pixel) {
+        let (u, v) = match layer {
             Some(i) => self.scene.objects[i].carry(point, from as f64, to as f64),
             None => point,
         };

@@ -94,13 +94,14 @@ pub struct TrackerConfig {
 }
 
 impl Default for TrackerConfig {
-    /// OpenCV's LK settings, except the minimum eigenvalue: 1e-3 instead of 1e-4. LK can
-    /// follow a window 10 times weaker, but on a nearly flat window it follows the noise and
-    /// slides by several pixels in a hundred frames without any gate noticing.
+    /// OpenCV's LK settings, except the minimum eigenvalue: 2e-3 instead of 1e-4 (gradients
+    /// of about 1.4 grey levels per pixel). LK can follow a window 20 times weaker, but on a
+    /// nearly flat window it follows the noise and slides by several pixels in a hundred
+    /// frames without any gate noticing.
     fn default() -> Self {
         Self {
             lk: LkParams {
-                min_eigen_threshold: 1e-3,
+                min_eigen_threshold: 2e-3,
                 ..LkParams::default()
             },
             max_tracks: 100,
@@ -168,8 +169,15 @@ impl TrackerConfig {
             c if c <= -1.0 => None,
             c => Some(c),
         };
+        let texture_check = LucasKanade::new(LkParams {
+            max_level: 0,
+            max_iterations: 1,
+            ..self.lk
+        })
+        .map_err(TrackerError::Lk)?;
         Ok(Checked {
             lk,
+            texture_check,
             fb_limit_sq,
             max_residual,
             residual_ratio,
@@ -194,6 +202,9 @@ fn gate(threshold: f32) -> Option<Option<Q16>> {
 pub(super) struct Checked {
     /// The validated LK tracker.
     pub lk: LucasKanade,
+    /// The same at full resolution only, with one iteration: tracking a frame onto itself
+    /// with it tells whether LK accepts a window, at the cost of building its template.
+    pub texture_check: LucasKanade,
     /// The forward-backward gate squared, in squared Q16 units; `None` when off.
     pub fb_limit_sq: Option<i64>,
     /// The residual gate; `None` when off.

@@ -324,10 +324,15 @@ impl<'a, const N: usize> Tracker<'a, N> {
             scratch: self.buffers.detect_scratch,
             candidates: self.buffers.candidates,
         };
-        let size = (self.width, self.height);
-        let born = self.next_frame;
-        self.set
-            .refill(&self.config, size, &pyramid, born, detect, &mut report)?;
+        let birth = Birth {
+            config: &self.config,
+            checked: &self.checked,
+            size: (self.width, self.height),
+            pyramid: &pyramid,
+            born: self.next_frame,
+        };
+        let lk_scratch = &mut *self.buffers.lk_scratch;
+        self.set.refill(birth, detect, lk_scratch, &mut report)?;
         Ok(self.finish_frame(&frame, half, report))
     }
 
@@ -391,10 +396,15 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 scratch: self.buffers.detect_scratch,
                 candidates: self.buffers.candidates,
             };
-            let size = (self.width, self.height);
-            let born = self.next_frame;
-            self.set
-                .refill(&self.config, size, &next_pyramid, born, detect, &mut report)?;
+            let birth = Birth {
+                config: &self.config,
+                checked: &self.checked,
+                size: (self.width, self.height),
+                pyramid: &next_pyramid,
+                born: self.next_frame,
+            };
+            let lk_scratch = &mut *self.buffers.lk_scratch;
+            self.set.refill(birth, detect, lk_scratch, &mut report)?;
         }
         Ok(self.finish_frame(&next, 1 - previous.half, report))
     }
@@ -504,16 +514,23 @@ impl<const N: usize> TrackSet<N> {
     }
 
     /// Detects on `pyramid` of a frame of `size` and starts new tracks, born in frame `born`,
-    /// up to `config.max_tracks`.
+    /// up to `config.max_tracks`. A corner becomes a track only where LK accepts its window:
+    /// otherwise it would be dropped on its first step and found again by the next refill,
+    /// frame after frame.
     fn refill(
         &mut self,
-        config: &TrackerConfig,
-        size: (usize, usize),
-        pyramid: &Pyramid<'_>,
-        born: u32,
+        birth: Birth<'_, '_>,
         buffers: DetectBuffers<'_>,
+        lk_scratch: &mut [i16],
         report: &mut FrameReport,
     ) -> Result<(), TrackerError> {
+        let Birth {
+            config,
+            checked,
+            size,
+            pyramid,
+            born,
+        } = birth;
         let Some(level_image) = pyramid.level(config.detect_level) else {
             return Ok(());
         };
@@ -521,16 +538,26 @@ impl<const N: usize> TrackSet<N> {
         let corners = refill::new_corners(config, &level_image, size, &live, buffers)
             .map_err(TrackerError::Detect)?;
         report.detected = true;
-        let room = config.max_tracks.saturating_sub(self.tracks.len());
-        for corner in corners.iter().take(room) {
+        let check = &checked.texture_check;
+        for corner in corners {
+            if self.tracks.len() >= config.max_tracks {
+                break;
+            }
+            let position = corner.position;
+            let still = check
+                .track_point(pyramid, pyramid, position, None, lk_scratch)
+                .map_err(TrackerError::Lk)?;
+            if !still.is_tracked() {
+                continue;
+            }
             let track = Track {
                 id: self.next_id,
-                position: corner.position,
+                position,
                 age: 0,
                 residual: Q16::ZERO,
                 born,
             };
-            let anchor = Anchor::capture(&pyramid.base(), corner.position);
+            let anchor = Anchor::capture(&pyramid.base(), position);
             if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
                 break;
             }
@@ -539,6 +566,15 @@ impl<const N: usize> TrackSet<N> {
         }
         Ok(())
     }
+}
+
+/// Where and when new tracks are born, and by which rules.
+struct Birth<'c, 'p> {
+    config: &'c TrackerConfig,
+    checked: &'c Checked,
+    size: (usize, usize),
+    pyramid: &'c Pyramid<'p>,
+    born: u32,
 }
 
 /// Checks each buffer against the size the configuration needs.

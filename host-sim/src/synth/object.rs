@@ -10,7 +10,7 @@ pub enum Surface {
     Flat(f64),
     /// A procedural texture fixed to the object, in the object's own coordinates (origin at its
     /// centre), so that it moves rigidly with the object.
-    Textured(Texture),
+    Textured(Box<Texture>),
 }
 
 impl Surface {
@@ -22,7 +22,7 @@ impl Surface {
             right: half_size.0,
             bottom: half_size.1,
         };
-        Surface::Textured(Texture::without_flat_regions(seed, extent))
+        Surface::Textured(Box::new(Texture::without_flat_regions(seed, extent)))
     }
 }
 
@@ -67,9 +67,14 @@ impl MovingObject {
     /// outside, a ramp one pixel wide across its edge (a sharp lens, as for the texture's
     /// shapes).
     pub fn coverage(&self, frame: f64, u: f64, v: f64) -> f64 {
+        (0.5 + self.inside_by(frame, u, v)).clamp(0.0, 1.0)
+    }
+
+    /// How far the plane point (`u`, `v`) lies inside the object's edge at frame `frame`, px
+    /// along the nearer axis; negative outside.
+    pub fn inside_by(&self, frame: f64, u: f64, v: f64) -> f64 {
         let (a, b) = self.local(frame, u, v);
-        let outside = (a.abs() - self.half_size.0).max(b.abs() - self.half_size.1);
-        (0.5 - outside).clamp(0.0, 1.0)
+        (self.half_size.0 - a.abs()).min(self.half_size.1 - b.abs())
     }
 
     /// True when the plane point (`u`, `v`) lies inside the object's edge at frame `frame`.
@@ -121,6 +126,8 @@ mod tests {
         assert_eq!(object.coverage(0.0, 4.0, 0.0), 0.5);
         assert_eq!(object.coverage(0.0, 4.25, -1.0), 0.25);
         assert_eq!(object.coverage(0.0, 0.0, 5.0), 0.0);
+        assert_eq!(object.inside_by(0.0, 1.0, -2.5), 1.5);
+        assert_eq!(object.inside_by(0.0, 7.0, 0.0), -3.0);
     }
 
     #[test]

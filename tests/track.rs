@@ -121,14 +121,11 @@ fn track_error(
 ) -> f64 {
     let (born, at) = births[&track.id];
     let now = xy(track.position);
-    if !any_layer {
-        return distance(now, sequence.true_position(born, at, k));
+    if any_layer {
+        sequence.distance_to_truth(born, at, k, now)
+    } else {
+        distance(now, sequence.true_position(born, at, k))
     }
-    let objects = sequence.scene().objects.len();
-    std::iter::once(None)
-        .chain((0..objects).map(Some))
-        .map(|layer| distance(now, sequence.true_position_on(layer, born, at, k)))
-        .fold(f64::INFINITY, f64::min)
 }
 
 fn sorted(mut values: Vec<f64>) -> Vec<f64> {

@@ -7,5 +7,6 @@ pub mod frame;
 pub mod io;
 pub mod reference;
 pub mod synth;
+pub mod viz;
 
 pub use frame::Frame;

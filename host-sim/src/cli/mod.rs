@@ -4,6 +4,7 @@
 pub mod args;
 pub mod flow;
 pub mod synth;
+pub mod track;
 
 use std::ffi::OsString;
 use std::fmt::Display;
@@ -27,6 +28,7 @@ Usage: host-sim <COMMAND> [options]
 
 Commands:
   flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  track     follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)
   synth     write seeded synthetic frame pairs with exact ground truth
 
 Options:
@@ -54,6 +56,7 @@ enum Request {
     /// Print the version to stdout.
     Version,
     Flow(commands::flow::FlowOptions),
+    Track(commands::track::TrackOptions),
     Synth(commands::synth::SynthOptions),
 }
 
@@ -88,6 +91,10 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Flow(options),
             None => Request::Print(flow::USAGE),
         }),
+        "track" => Ok(match track::parse_options(rest)? {
+            Some(options) => Request::Track(options),
+            None => Request::Print(track::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
@@ -114,6 +121,7 @@ fn execute(request: Request) -> Result<(), CommandError> {
             Ok(())
         }
         Request::Flow(options) => commands::flow::run(&options),
+        Request::Track(options) => commands::track::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
     }
 }

@@ -2,6 +2,7 @@
 
 pub mod flow;
 pub mod synth;
+pub mod track;
 
 use std::fmt;
 

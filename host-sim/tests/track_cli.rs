@@ -165,12 +165,8 @@ fn a_y4m_file_and_y4m_on_stdin_give_the_same_tracks_as_a_folder() {
         .success());
 
     let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            &"track".as_ref(),
-            &"-".as_ref(),
-            &"--out".as_ref(),
-            from_stdin.as_os_str(),
-        ])
+        .args(["track", "-", "--out"])
+        .arg(&from_stdin)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

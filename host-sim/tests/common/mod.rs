@@ -1,6 +1,9 @@
 //! What the command-line tests share: scratch directories, running the binary, and the error
 //! contract's check.
 
+// Each test binary compiles its own copy and uses a part of it.
+#![allow(dead_code)]
+
 use std::fs;
 use std::path::PathBuf;
 use std::process::{Command, Output};

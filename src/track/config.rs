@@ -27,7 +27,9 @@ pub enum Detector {
 
 impl Default for Detector {
     /// Shi-Tomasi with OpenCV's block and quality level and no minimum distance of its own
-    /// (the tracker spaces new corners with [`TrackerConfig::min_distance`]).
+    /// (the tracker spaces new corners with [`TrackerConfig::min_distance`]). On the
+    /// half-resolution image detection runs on, FAST at its threshold of 10 finds too few
+    /// corners in a 160 x 120 frame to keep 100 tracks.
     fn default() -> Self {
         Detector::ShiTomasi(ShiTomasi {
             min_distance: 0,
@@ -60,7 +62,10 @@ pub struct TrackerConfig {
     pub detector: Detector,
     /// The pyramid level detection runs on (0 = full resolution). Each level up divides the
     /// cost of detection by four; corners found there start tracks at twice, four times...
-    /// their coordinates. At most [`MAX_LEVEL`].
+    /// their coordinates. At most [`MAX_LEVEL`]. Level 1 (the default) tracks as well as
+    /// level 0: on two synthetic 160 x 120 sequences, 92-93% of the tracks were within 1 px of
+    /// the truth after 100 frames against 91-92%. Level 2 of a 160 x 120 frame is too small
+    /// to supply 100 corners.
     pub detect_level: usize,
     /// Bucketing of new corners over the frame; live tracks count against their cell.
     pub grid: Grid,

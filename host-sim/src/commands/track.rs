@@ -41,7 +41,8 @@ impl From<TrackingFailure> for CommandError {
 ///
 /// The CSV is created before any work (an unwritable path fails at once) and committed at the
 /// end; when a frame is bad, the rows of the frames before it are committed and the bad frame
-/// is the error. Nothing is committed when no frame could be read.
+/// is the error. Nothing is committed when no frame could be read, or when writing the CSV
+/// itself failed (it could end in the middle of a frame).
 pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let out = AtomicFile::create(&options.out)?;
     if let Some(dir) = &options.viz {
@@ -51,23 +52,27 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let mut progress = Progress::new("track", source.frame_count());
     let mut csv = CsvWriter::new(out, &COLUMNS).map_err(|e| write_error(&options.out, &e))?;
     let mut trails = Trails::new();
-    let mut frames_done = 0;
+    let (mut frames_done, mut csv_failed) = (0, false);
 
     let frames = source.map(|frame| frame.map_err(CommandError::from));
     let configure = |width, height| config_for(width, height, options.max_tracks);
     let outcome = track_sequence(frames, configure, |tracked| {
-        write_rows(&mut csv, tracked).map_err(|e| write_error(&options.out, &e))?;
+        // The picture first: a frame's rows are only written once all its outputs are.
         if let Some(dir) = &options.viz {
             trails.update(tracked.tracks);
             let picture = trails.draw(tracked.frame).into_image();
             write_rgb_png(&dir.join(frame_picture_name(tracked.index)), &picture)?;
         }
+        write_rows(&mut csv, tracked).map_err(|e| {
+            csv_failed = true;
+            write_error(&options.out, &e)
+        })?;
         frames_done = tracked.index + 1;
         progress.update(frames_done);
         Ok(())
     });
     progress.finish();
-    if frames_done > 0 {
+    if frames_done > 0 && !csv_failed {
         csv.into_inner().commit()?;
     }
     outcome.map(|_| ())
@@ -97,7 +102,8 @@ pub fn frame_picture_name(index: usize) -> String {
     format!("{index:06}.png")
 }
 
-fn write_error(path: &Path, error: &io::Error) -> CommandError {
+/// An error writing the output at `path`.
+pub(crate) fn write_error(path: &Path, error: &io::Error) -> CommandError {
     CommandError::Output(OutputError::new(
         path,
         format!("cannot write: {}", describe_io_error(error)),

@@ -7,7 +7,7 @@ use std::path::Path;
 use kestrel::track::FrameReport;
 
 use super::Scenario;
-use crate::commands::track::{frame_picture_name, write_rows, COLUMNS};
+use crate::commands::track::{frame_picture_name, write_error, write_rows, COLUMNS};
 use crate::commands::CommandError;
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_rgb_png;
@@ -31,7 +31,7 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
     create_output_dir(&trails_dir)?;
     let csv_path = dir.join("tracks.csv");
     let mut csv = CsvWriter::new(AtomicFile::create(&csv_path)?, &COLUMNS)
-        .map_err(|e| CommandError::Processing(format!("{}: {e}", csv_path.display())))?;
+        .map_err(|e| write_error(&csv_path, &e))?;
     let mut trails = Trails::new();
     let mut sheet = Vec::new();
     let mut stats = Stats::default();
@@ -39,8 +39,7 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
     let frames = scenario.frames.iter().cloned().map(Ok::<_, CommandError>);
     let configure = |width, height| config_for(width, height, MAX_TRACKS);
     track_sequence(frames, configure, |tracked| {
-        write_rows(&mut csv, tracked)
-            .map_err(|e| CommandError::Processing(format!("{}: {e}", csv_path.display())))?;
+        write_rows(&mut csv, tracked).map_err(|e| write_error(&csv_path, &e))?;
         trails.update(tracked.tracks);
         let mut canvas = trails.draw(tracked.frame);
         outline_objects(scenario, tracked.index, &mut canvas);

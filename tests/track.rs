@@ -14,14 +14,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use host_sim::synth::{
     CameraPath, Extent, MovingObject, Scene, SceneSpec, Sequence, Surface, Texture,
 };
+use host_sim::tracking::{track_sequence, HostBuffers, TrackingFailure};
 use host_sim::Frame;
-use kestrel::detect::Corner;
 use kestrel::frame::ImageView;
-use kestrel::lk::scratch_len;
-use kestrel::track::{
-    detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,
-    TrackerConfig, TrackerError,
-};
+use kestrel::track::{FrameReport, Track, Tracker, TrackerConfig, TrackerError};
 use kestrel::Point;
 
 /// Capacity of the trackers under test.
@@ -31,35 +27,6 @@ const FRAMES: usize = 101;
 /// Sensor noise, grey levels.
 const NOISE: f64 = 1.0;
 
-/// Host-allocated buffers for a tracker of `config` on `width` x `height` frames.
-struct Buffers {
-    storage: Vec<u8>,
-    lk_scratch: Vec<i16>,
-    detect_scratch: Vec<i32>,
-    candidates: Vec<Corner>,
-}
-
-impl Buffers {
-    fn new(config: &TrackerConfig, width: usize, height: usize) -> Self {
-        let candidates = 3 * config.max_tracks;
-        Self {
-            storage: vec![0; tracker_storage_len(width, height, config.pyramid_levels())],
-            lk_scratch: vec![0; scratch_len(config.lk.window)],
-            detect_scratch: vec![0; detect_scratch_len(width, config.detect_level, candidates)],
-            candidates: vec![Corner::default(); candidates],
-        }
-    }
-
-    fn lend(&mut self) -> TrackerBuffers<'_> {
-        TrackerBuffers {
-            storage: &mut self.storage,
-            lk_scratch: &mut self.lk_scratch,
-            detect_scratch: &mut self.detect_scratch,
-            candidates: &mut self.candidates,
-        }
-    }
-}
-
 /// What the tracker reported and held after one frame.
 struct FrameRecord {
     report: FrameReport,
@@ -68,22 +35,20 @@ struct FrameRecord {
 
 /// Runs a tracker of `config` over `frames`: `start` on the first, `process` on the rest.
 fn run(frames: &[Frame], config: TrackerConfig) -> Vec<FrameRecord> {
-    let (width, height) = (frames[0].width, frames[0].height);
-    let mut buffers = Buffers::new(&config, width, height);
-    let mut tracker = Tracker::<CAPACITY>::new(config, width, height, buffers.lend()).unwrap();
     let mut records = Vec::with_capacity(frames.len());
-    for (k, frame) in frames.iter().enumerate() {
-        let report = if k == 0 {
-            tracker.start(frame.view().unwrap()).unwrap()
-        } else {
-            let prev = frames[k - 1].view().unwrap();
-            tracker.process(prev, frame.view().unwrap(), None).unwrap()
-        };
-        records.push(FrameRecord {
-            report,
-            tracks: tracker.tracks().to_vec(),
-        });
-    }
+    let frames = frames.iter().cloned().map(Ok::<_, TrackingFailure>);
+    track_sequence(
+        frames,
+        |_, _| config,
+        |tracked| {
+            records.push(FrameRecord {
+                report: tracked.report,
+                tracks: tracked.tracks.to_vec(),
+            });
+            Ok(())
+        },
+    )
+    .unwrap();
     records
 }
 
@@ -447,7 +412,7 @@ fn a_prediction_reaches_beyond_the_pyramid() {
     let pan = Point::from_f32(shift.0 as f32, shift.1 as f32);
     let predict = move |p: Point| Point::new(p.x + pan.x, p.y + pan.y);
 
-    let mut buffers = Buffers::new(&config, width, height);
+    let mut buffers = HostBuffers::new(&config, width, height);
     let mut tracker = Tracker::<CAPACITY>::new(config, width, height, buffers.lend()).unwrap();
     let mut correct = |prediction: Option<&dyn Fn(Point) -> Point>| {
         tracker.start(a.view().unwrap()).unwrap();
@@ -622,12 +587,12 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
         ),
     ];
     for (config, expected) in cases {
-        let mut buffers = Buffers::new(&small_config(), 64, 48);
+        let mut buffers = HostBuffers::new(&small_config(), 64, 48);
         let made = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend());
         assert_eq!(made.unwrap_err(), expected, "{config:?}");
     }
     for (width, height) in [(0, 48), (64, 0), (5000, 48)] {
-        let mut buffers = Buffers::new(&base, 64, 48);
+        let mut buffers = HostBuffers::new(&base, 64, 48);
         let made = Tracker::<CAPACITY>::new(base, width, height, buffers.lend());
         assert_eq!(made.unwrap_err(), TrackerError::BadFrameSize);
     }
@@ -640,8 +605,8 @@ fn short_buffers_are_refused_when_the_tracker_is_made() {
     use kestrel::track::Detector;
 
     let config = small_config();
-    let refused = |shorten: fn(&mut Buffers), config: TrackerConfig| {
-        let mut buffers = Buffers::new(&config, 64, 48);
+    let refused = |shorten: fn(&mut HostBuffers), config: TrackerConfig| {
+        let mut buffers = HostBuffers::new(&config, 64, 48);
         shorten(&mut buffers);
         Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend()).err()
     };
@@ -677,7 +642,7 @@ fn frames_out_of_order_or_of_another_size_are_errors_that_change_nothing() {
     let (a, b) = frame_pair(64, 48);
     let (other, _) = frame_pair(48, 64);
     let config = small_config();
-    let mut buffers = Buffers::new(&config, 64, 48);
+    let mut buffers = HostBuffers::new(&config, 64, 48);
     let mut tracker = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend()).unwrap();
     let (av, bv, ov) = (a.view().unwrap(), b.view().unwrap(), other.view().unwrap());
 
@@ -711,7 +676,7 @@ fn frames_out_of_order_or_of_another_size_are_errors_that_change_nothing() {
 fn ids_keep_counting_across_restarts() {
     let (a, b) = frame_pair(96, 72);
     let config = small_config();
-    let mut buffers = Buffers::new(&config, 96, 72);
+    let mut buffers = HostBuffers::new(&config, 96, 72);
     let mut tracker = Tracker::<CAPACITY>::new(config, 96, 72, buffers.lend()).unwrap();
     let (av, bv) = (a.view().unwrap(), b.view().unwrap());
     let mut seen = BTreeSet::new();
@@ -754,7 +719,7 @@ fn views_with_a_stride_track_like_packed_frames() {
     }
     let config = small_config();
     let outcome = |prev: ImageView<'_>, next: ImageView<'_>| {
-        let mut buffers = Buffers::new(&config, 64, 48);
+        let mut buffers = HostBuffers::new(&config, 64, 48);
         let mut tracker = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend()).unwrap();
         tracker.start(prev).unwrap();
         tracker.process(prev, next, None).unwrap();

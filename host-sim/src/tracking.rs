@@ -146,16 +146,23 @@ where
     Ok(count)
 }
 
-/// The tracker's buffers, allocated once for a frame size, as firmware would in statics.
-struct HostBuffers {
-    storage: Vec<u8>,
-    lk_scratch: Vec<i16>,
-    detect_scratch: Vec<i32>,
-    candidates: Vec<Corner>,
+/// A tracker's buffers on the heap, allocated once for a frame size as firmware would in
+/// statics.
+#[derive(Debug, Clone)]
+pub struct HostBuffers {
+    /// Two pyramids and FAST's rows.
+    pub storage: Vec<u8>,
+    /// LK scratch.
+    pub lk_scratch: Vec<i16>,
+    /// Shi-Tomasi scratch.
+    pub detect_scratch: Vec<i32>,
+    /// Candidate corners: three per track.
+    pub candidates: Vec<Corner>,
 }
 
 impl HostBuffers {
-    fn new(config: &TrackerConfig, width: usize, height: usize) -> Self {
+    /// Buffers for a tracker of `config` on `width` x `height` frames.
+    pub fn new(config: &TrackerConfig, width: usize, height: usize) -> Self {
         // Three candidates a track spread new tracks well even where one patch is busy.
         let candidates = 3 * config.max_tracks;
         Self {
@@ -166,7 +173,8 @@ impl HostBuffers {
         }
     }
 
-    fn lend(&mut self) -> TrackerBuffers<'_> {
+    /// The buffers, lent to a tracker.
+    pub fn lend(&mut self) -> TrackerBuffers<'_> {
         TrackerBuffers {
             storage: &mut self.storage,
             lk_scratch: &mut self.lk_scratch,

@@ -586,6 +586,7 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
             TrackerError::Detect(DetectError::BadQualityLevel),
         ),
     ];
+    let count = cases.len();
     for (config, expected) in cases {
         let mut buffers = HostBuffers::new(&small_config(), 64, 48);
         let made = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend());
@@ -596,7 +597,7 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
         let made = Tracker::<CAPACITY>::new(base, width, height, buffers.lend());
         assert_eq!(made.unwrap_err(), TrackerError::BadFrameSize);
     }
-    eprintln!("{} setting errors, each refused with its own error", 13 + 3);
+    eprintln!("{count} settings and 3 frame sizes refused, each with its own error");
 }
 
 #[test]

@@ -79,8 +79,15 @@ pub(super) struct StorageParts<'s> {
     pub fast_rows: &'s mut [u8],
 }
 
-/// Splits `storage` into two pyramids of `pyramid_len` bytes and the rest.
-pub(super) fn split_storage(storage: &mut [u8], pyramid_len: usize) -> StorageParts<'_> {
+/// Splits `storage` into two pyramids of `width` x `height` frames down to `max_level`, and
+/// the rest.
+pub(super) fn split_storage(
+    storage: &mut [u8],
+    width: usize,
+    height: usize,
+    max_level: usize,
+) -> StorageParts<'_> {
+    let pyramid_len = pyramid_storage_len(width, height, max_level);
     let (first, rest) = storage.split_at_mut(pyramid_len.min(storage.len()));
     let (second, fast_rows) = rest.split_at_mut(pyramid_len.min(rest.len()));
     StorageParts {

@@ -79,7 +79,7 @@ pub use config::{Detector, TrackerConfig};
 use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::lk::{scratch_len, LkError};
-use crate::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
+use crate::pyramid::{Pyramid, PyramidError};
 use crate::q16::{Point, Q16};
 use anchor::Anchor;
 use buffers::StorageParts;
@@ -312,33 +312,19 @@ impl<'a, const N: usize> Tracker<'a, N> {
     pub fn start(&mut self, frame: ImageView<'_>) -> Result<FrameReport, TrackerError> {
         self.check_size(&frame)?;
         let levels = self.config.pyramid_levels();
-        let pyramid_len = pyramid_storage_len(self.width, self.height, levels);
         // Keep the previous pyramid intact until this one is built, in case it fails.
         let half = self.previous.map_or(0, |p| 1 - p.half);
         let StorageParts {
             halves: [first, second],
-            fast_rows,
-        } = buffers::split_storage(self.buffers.storage, pyramid_len);
+            ..
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
         let storage = if half == 0 { first } else { second };
-        let pyramid = Pyramid::build(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+        Pyramid::build(frame, levels, storage).map_err(TrackerError::Pyramid)?;
 
         // A restart ends the previous frame's tracks; they are not counted as dropped.
         self.set.clear();
         let mut report = FrameReport::default();
-        let detect = DetectBuffers {
-            fast_rows,
-            scratch: self.buffers.detect_scratch,
-            candidates: self.buffers.candidates,
-        };
-        let birth = Birth {
-            config: &self.config,
-            checked: &self.checked,
-            size: (self.width, self.height),
-            pyramid: &pyramid,
-            born: self.next_frame,
-        };
-        let lk_scratch = &mut *self.buffers.lk_scratch;
-        self.set.refill(birth, detect, lk_scratch, &mut report)?;
+        self.refill(frame, half, &mut report)?;
         Ok(self.finish_frame(&frame, half, report))
     }
 
@@ -367,11 +353,10 @@ impl<'a, const N: usize> Tracker<'a, N> {
             return Err(TrackerError::NotThePreviousFrame);
         }
         let levels = self.config.pyramid_levels();
-        let pyramid_len = pyramid_storage_len(self.width, self.height, levels);
         let StorageParts {
             halves: [first, second],
-            fast_rows,
-        } = buffers::split_storage(self.buffers.storage, pyramid_len);
+            ..
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
         let (old, new) = if previous.half == 0 {
             (first, second)
         } else {
@@ -396,23 +381,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 &mut report,
             )
             .map_err(TrackerError::Lk)?;
+        let half = 1 - previous.half;
         if self.set.tracks.len() < self.config.refill_below {
-            let detect = DetectBuffers {
-                fast_rows,
-                scratch: self.buffers.detect_scratch,
-                candidates: self.buffers.candidates,
-            };
-            let birth = Birth {
-                config: &self.config,
-                checked: &self.checked,
-                size: (self.width, self.height),
-                pyramid: &next_pyramid,
-                born: self.next_frame,
-            };
-            let lk_scratch = &mut *self.buffers.lk_scratch;
-            self.set.refill(birth, detect, lk_scratch, &mut report)?;
+            self.refill(next, half, &mut report)?;
         }
-        Ok(self.finish_frame(&next, 1 - previous.half, report))
+        Ok(self.finish_frame(&next, half, report))
     }
 
     /// The live tracks, oldest first.
@@ -485,6 +458,37 @@ impl<'a, const N: usize> Tracker<'a, N> {
         } else {
             Err(TrackerError::FrameSizeMismatch)
         }
+    }
+
+    /// Detects new tracks in `frame`, whose pyramid was just built into `half` of the storage.
+    fn refill(
+        &mut self,
+        frame: ImageView<'_>,
+        half: usize,
+        report: &mut FrameReport,
+    ) -> Result<(), TrackerError> {
+        let levels = self.config.pyramid_levels();
+        let StorageParts {
+            halves: [first, second],
+            fast_rows,
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
+        let storage = if half == 0 { first } else { second };
+        let pyramid =
+            Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+        let detect = DetectBuffers {
+            fast_rows,
+            scratch: self.buffers.detect_scratch,
+            candidates: self.buffers.candidates,
+        };
+        let birth = Birth {
+            config: &self.config,
+            checked: &self.checked,
+            size: (self.width, self.height),
+            pyramid: &pyramid,
+            born: self.next_frame,
+        };
+        self.set
+            .refill(birth, detect, self.buffers.lk_scratch, report)
     }
 
     /// Remembers `frame` as the previous frame, its pyramid in `half`, and counts it.

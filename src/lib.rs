@@ -6,7 +6,8 @@
 //! 2. [`pyramid`]: Gaussian pyramids in caller-owned storage.
 //! 3. [`detect`]: FAST-9 and Shi-Tomasi corners, spread over the frame by a grid.
 //! 4. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
-//! 5. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
+//! 5. [`track`]: the KLT track manager: detection, tracking, outlier rejection, refill, ids.
+//! 6. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
 //!    and the autopilot's OPTICAL_FLOW_RAD output.
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
@@ -31,6 +32,7 @@ pub mod frame;
 pub mod lk;
 pub mod pyramid;
 pub mod q16;
+pub mod track;
 
 pub use frame::ImageView;
 pub use pyramid::Pyramid;

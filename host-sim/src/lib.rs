@@ -7,5 +7,7 @@ pub mod frame;
 pub mod io;
 pub mod reference;
 pub mod synth;
+pub mod tracking;
+pub mod viz;
 
 pub use frame::Frame;

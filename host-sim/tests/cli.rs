@@ -1,57 +1,30 @@
 //! Runs the `host-sim` binary on files made in a scratch directory and checks the command-line
 //! contract: outputs, exit status, one-line errors naming the culprit, and no output on error.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
+use common::{assert_one_line_error, host_sim, Scratch};
 use image::{GrayImage, Luma, Rgb, RgbImage};
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
 
-/// A directory for one test's files, removed when the test ends.
-struct Scratch {
-    dir: PathBuf,
-}
-
-impl Scratch {
-    fn new(test: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("host-sim-cli-{test}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        Self { dir }
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir.join(name)
-    }
-
-    /// A textured frame and the same frame shifted 2 px to the right, as a.png and b.png, and
-    /// the points file p.csv.
-    fn pair_and_points(&self, points: &str) -> (PathBuf, PathBuf, PathBuf) {
-        let (a, b, p) = (self.path("a.png"), self.path("b.png"), self.path("p.csv"));
-        textured(WIDTH, HEIGHT, 0.0).save(&a).unwrap();
-        textured(WIDTH, HEIGHT, 2.0).save(&b).unwrap();
-        fs::write(&p, points).unwrap();
-        (a, b, p)
-    }
-
-    /// The names in the directory, sorted.
-    fn entries(&self) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(&self.dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.dir);
-    }
+/// A textured frame and the same frame shifted 2 px to the right, as a.png and b.png, and the
+/// points file p.csv.
+fn pair_and_points(scratch: &Scratch, points: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let (a, b, p) = (
+        scratch.path("a.png"),
+        scratch.path("b.png"),
+        scratch.path("p.csv"),
+    );
+    textured(WIDTH, HEIGHT, 0.0).save(&a).unwrap();
+    textured(WIDTH, HEIGHT, 2.0).save(&b).unwrap();
+    fs::write(&p, points).unwrap();
+    (a, b, p)
 }
 
 /// A smooth, non-repeating texture, its content moved `shift` px to the right.
@@ -66,17 +39,9 @@ fn textured(width: u32, height: u32, shift: f32) -> GrayImage {
     })
 }
 
-fn host_sim(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args.iter().map(|a| a.as_ref()))
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .unwrap()
-}
-
 /// `flow` on the scratch pair with `extra` arguments, writing o.csv.
 fn flow(scratch: &Scratch, points: &str, extra: &[&str]) -> (Output, PathBuf) {
-    let (a, b, p) = scratch.pair_and_points(points);
+    let (a, b, p) = pair_and_points(scratch, points);
     let out = scratch.path("o.csv");
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
         &"flow",
@@ -91,27 +56,6 @@ fn flow(scratch: &Scratch, points: &str, extra: &[&str]) -> (Output, PathBuf) {
     ];
     args.extend(extra.iter().map(|e| e as &dyn AsRef<std::ffi::OsStr>));
     (host_sim(&args), out)
-}
-
-/// Checks the error contract: exit `code`, exactly one stderr line starting `host-sim: ` and
-/// naming `culprit`, nothing on stdout, no panic or backtrace.
-fn assert_one_line_error(output: &Output, code: i32, culprit: &str) -> String {
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    assert_eq!(output.status.code(), Some(code), "stderr: {stderr}");
-    assert_eq!(stderr.lines().count(), 1, "not one line: {stderr:?}");
-    assert!(stderr.ends_with('\n'), "{stderr:?}");
-    assert!(stderr.starts_with("host-sim: "), "{stderr:?}");
-    assert!(
-        stderr.contains(culprit),
-        "{stderr:?} does not name {culprit:?}"
-    );
-    let lower = stderr.to_lowercase();
-    assert!(
-        !lower.contains("panicked") && !lower.contains("backtrace"),
-        "{stderr:?}"
-    );
-    assert!(output.stdout.is_empty(), "stdout: {:?}", output.stdout);
-    stderr
 }
 
 /// Only the inputs remain: no output and no temporary beside it.
@@ -206,7 +150,7 @@ fn flow_options_are_accepted() {
 #[test]
 fn colour_frames_are_tracked_like_grey_ones() {
     let scratch = Scratch::new("colour");
-    let (a, b, p) = scratch.pair_and_points(POINTS);
+    let (a, b, p) = pair_and_points(&scratch, POINTS);
     // The same texture in colour: BT.601 luma of (v, v, v) is v.
     for path in [&a, &b] {
         let grey = image::open(path).unwrap().to_luma8();
@@ -308,7 +252,7 @@ fn help_goes_to_stdout_with_success() {
 #[test]
 fn a_missing_frame_is_named() {
     let scratch = Scratch::new("missing");
-    let (a, _, p) = scratch.pair_and_points(POINTS);
+    let (a, _, p) = pair_and_points(&scratch, POINTS);
     let missing = scratch.path("missing.png");
     let out = scratch.path("o.csv");
     let output = host_sim(&[
@@ -330,7 +274,7 @@ fn a_missing_frame_is_named() {
 #[test]
 fn a_corrupt_png_is_named() {
     let scratch = Scratch::new("corrupt");
-    let (a, b, p) = scratch.pair_and_points(POINTS);
+    let (a, b, p) = pair_and_points(&scratch, POINTS);
     let png = fs::read(&b).unwrap();
     fs::write(&b, &png[..png.len() / 2]).unwrap();
     let out = scratch.path("o.csv");
@@ -366,7 +310,7 @@ fn a_corrupt_png_is_named() {
 #[test]
 fn frames_of_different_sizes_name_both_files() {
     let scratch = Scratch::new("sizes");
-    let (a, b, p) = scratch.pair_and_points(POINTS);
+    let (a, b, p) = pair_and_points(&scratch, POINTS);
     textured(WIDTH / 2, HEIGHT, 0.0).save(&b).unwrap();
     let out = scratch.path("o.csv");
     let output = host_sim(&[
@@ -483,7 +427,7 @@ fn an_unwritable_output_path_is_named_and_nothing_is_written() {
     // Unwritable even for root: a directory that does not exist, and a parent that is a file.
     for out in ["no-such-dir/o.csv", "p.csv/o.csv"] {
         let out = scratch.path(out);
-        let (a, b, p) = scratch.pair_and_points(POINTS);
+        let (a, b, p) = pair_and_points(&scratch, POINTS);
         let output = host_sim(&[
             &"flow",
             &"--prev",
@@ -507,10 +451,10 @@ fn an_unwritable_output_path_is_named_and_nothing_is_written() {
         &"--points",
         &scratch.path("p.csv"),
         &"--out",
-        &scratch.dir,
+        &scratch.dir(),
     ]);
     let message = assert_one_line_error(&output, 1, "is a directory");
-    assert!(message.contains(&scratch.dir.display().to_string()));
+    assert!(message.contains(&scratch.dir().display().to_string()));
 }
 
 #[test]
@@ -548,7 +492,7 @@ fn an_empty_points_file_gives_a_header_only_output() {
 #[test]
 fn paths_with_spaces_work() {
     let scratch = Scratch::new("spaces");
-    let (a, b, p) = scratch.pair_and_points(POINTS);
+    let (a, b, p) = pair_and_points(&scratch, POINTS);
     let out: &Path = &scratch.path("out file.csv");
     let output = host_sim(&[
         &"flow",

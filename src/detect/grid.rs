@@ -57,6 +57,23 @@ impl Grid {
         Some((cx, cy))
     }
 
+    /// Checks the number of columns and rows.
+    ///
+    /// ```
+    /// use kestrel::detect::grid::Grid;
+    /// use kestrel::detect::DetectError;
+    /// assert_eq!(Grid { cols: 8, rows: 6, per_cell: 3 }.validate(), Ok(()));
+    /// assert_eq!(Grid { cols: 0, rows: 6, per_cell: 3 }.validate(), Err(DetectError::BadGrid));
+    /// ```
+    pub fn validate(&self) -> Result<(), DetectError> {
+        let sides = 1..=MAX_CELLS_PER_SIDE;
+        if sides.contains(&self.cols) && sides.contains(&self.rows) {
+            Ok(())
+        } else {
+            Err(DetectError::BadGrid)
+        }
+    }
+
     /// Keeps at most `per_cell` corners per cell of a `width` x `height` frame, less one for each
     /// of `tracks` in that cell, preferring the strongest. The kept corners are moved to the
     /// front of `corners`, strongest first, and their number is returned. Corners and tracks off
@@ -87,10 +104,7 @@ impl Grid {
         corners: &mut [Corner],
         tracks: &[Point],
     ) -> Result<usize, DetectError> {
-        let sides = 1..=MAX_CELLS_PER_SIDE;
-        if !sides.contains(&self.cols) || !sides.contains(&self.rows) {
-            return Err(DetectError::BadGrid);
-        }
+        self.validate()?;
         let mut used = [0u8; MAX_CELLS_PER_SIDE * MAX_CELLS_PER_SIDE];
         let index = |x: usize, y: usize| {
             self.cell_of(width, height, x, y)

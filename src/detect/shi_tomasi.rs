@@ -144,8 +144,7 @@ impl ShiTomasi {
         scratch: &mut [i32],
         out: &mut [Corner],
     ) -> Result<usize, DetectError> {
-        let reach = block_reach(self.block).ok_or(DetectError::BadBlockSize)?;
-        let quality = quality_q16(self.quality_level).ok_or(DetectError::BadQualityLevel)?;
+        let (reach, quality) = self.checked()?;
         if scratch.len() < scratch_len(image.width(), out.len()) {
             return Err(DetectError::ScratchTooSmall);
         }
@@ -170,6 +169,27 @@ impl ShiTomasi {
             scratch,
         );
         Ok(spaced)
+    }
+
+    /// Checks the settings without detecting anything, so that a configuration can be refused
+    /// when it is made rather than on the first frame.
+    ///
+    /// ```
+    /// use kestrel::detect::shi_tomasi::ShiTomasi;
+    /// use kestrel::detect::DetectError;
+    /// assert_eq!(ShiTomasi::default().validate(), Ok(()));
+    /// let even = ShiTomasi { block: 4, ..ShiTomasi::default() };
+    /// assert_eq!(even.validate(), Err(DetectError::BadBlockSize));
+    /// ```
+    pub fn validate(&self) -> Result<(), DetectError> {
+        self.checked().map(|_| ())
+    }
+
+    /// `block / 2` and the quality level in Q16, or why the settings are refused.
+    fn checked(&self) -> Result<(usize, u64), DetectError> {
+        let reach = block_reach(self.block).ok_or(DetectError::BadBlockSize)?;
+        let quality = quality_q16(self.quality_level).ok_or(DetectError::BadQualityLevel)?;
+        Ok((reach, quality))
     }
 }
 

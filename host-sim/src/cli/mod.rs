@@ -2,8 +2,10 @@
 //! contract (one line on stderr, exit status 1 for bad input, 2 for a bad command line).
 
 pub mod args;
+pub mod demo;
 pub mod flow;
 pub mod synth;
+pub mod track;
 
 use std::ffi::OsString;
 use std::fmt::Display;
@@ -26,7 +28,9 @@ host-sim: the Kestrel host simulator. Runs the library on recorded frames and wr
 Usage: host-sim <COMMAND> [options]
 
 Commands:
+  demo      run the library on a built-in sequence and write pictures (start here)
   flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  track     follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)
   synth     write seeded synthetic frame pairs with exact ground truth
 
 Options:
@@ -53,7 +57,9 @@ enum Request {
     Print(&'static str),
     /// Print the version to stdout.
     Version,
+    Demo(commands::demo::DemoOptions),
     Flow(commands::flow::FlowOptions),
+    Track(commands::track::TrackOptions),
     Synth(commands::synth::SynthOptions),
 }
 
@@ -84,9 +90,17 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
     match command.to_string_lossy().as_ref() {
         "-h" | "--help" => Ok(Request::Print(USAGE)),
         "-V" | "--version" => Ok(Request::Version),
+        "demo" => Ok(match demo::parse_options(rest)? {
+            Some(options) => Request::Demo(options),
+            None => Request::Print(demo::USAGE),
+        }),
         "flow" => Ok(match flow::parse_options(rest)? {
             Some(options) => Request::Flow(options),
             None => Request::Print(flow::USAGE),
+        }),
+        "track" => Ok(match track::parse_options(rest)? {
+            Some(options) => Request::Track(options),
+            None => Request::Print(track::USAGE),
         }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
@@ -113,7 +127,9 @@ fn execute(request: Request) -> Result<(), CommandError> {
             print_stdout(&format!("host-sim {}\n", env!("CARGO_PKG_VERSION")));
             Ok(())
         }
+        Request::Demo(options) => commands::demo::run(&options),
         Request::Flow(options) => commands::flow::run(&options),
+        Request::Track(options) => commands::track::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
     }
 }

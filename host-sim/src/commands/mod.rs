@@ -1,7 +1,9 @@
 //! The commands host-sim runs, given already validated options.
 
+pub mod demo;
 pub mod flow;
 pub mod synth;
+pub mod track;
 
 use std::fmt;
 

@@ -6,13 +6,12 @@
 //! textured nodes of a grid whose true positions stay inside the second frame.
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::PathBuf;
 
 use super::CommandError;
 use crate::io::atomic::write_atomically;
+use crate::io::create_output_dir;
 use crate::io::images::write_png;
-use crate::io::OutputError;
 use crate::synth::{
     grid_points, pair_with_lighting, textured_points, true_position, Homography, Lighting,
     SceneSpec, SplitMix64,
@@ -58,12 +57,7 @@ struct GeneratedPair {
 
 /// Runs `synth`.
 pub fn run(options: &SynthOptions) -> Result<(), CommandError> {
-    fs::create_dir_all(&options.out).map_err(|e| {
-        OutputError::new(
-            &options.out,
-            format!("cannot create: {}", crate::io::describe_io_error(&e)),
-        )
-    })?;
+    create_output_dir(&options.out)?;
     let mut manifest = String::from("pair,a,b,points,truth,dx,dy,angle_deg,scale,gain,bias\n");
     for index in 0..options.pairs {
         let names = PairNames::new(index);

@@ -70,6 +70,15 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), super::OutputError> {
     super::atomic::write_atomically(path, &bytes)
 }
 
+/// Writes an RGB picture to `path` as a PNG, atomically.
+pub fn write_rgb_png(path: &Path, image: &image::RgbImage) -> Result<(), super::OutputError> {
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut Cursor::new(&mut bytes), ImageFormat::Png)
+        .map_err(|e| super::OutputError::new(path, format!("cannot encode PNG: {e}")))?;
+    super::atomic::write_atomically(path, &bytes)
+}
+
 /// Converts any decoded image to an 8-bit grey frame (see the module documentation).
 pub fn to_grey(image: &DynamicImage) -> Frame {
     let (width, height) = (image.width() as usize, image.height() as usize);

@@ -8,6 +8,7 @@ pub mod atomic;
 pub mod csv;
 pub mod images;
 pub mod json;
+pub mod progress;
 pub mod sequence;
 pub mod y4m;
 
@@ -16,6 +17,7 @@ use std::io;
 use std::path::Path;
 
 pub use atomic::AtomicFile;
+pub use progress::Progress;
 pub use sequence::FrameSource;
 
 /// How inputs read from standard input are named in messages.
@@ -145,6 +147,12 @@ pub fn describe_io_error(error: &io::Error) -> String {
             }
         }
     }
+}
+
+/// Creates the output directory `dir` and its parents, if missing.
+pub fn create_output_dir(dir: &Path) -> Result<(), OutputError> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| OutputError::new(dir, format!("cannot create: {}", describe_io_error(&e))))
 }
 
 /// Checks that a `width` x `height` frame is one the library accepts.

@@ -100,6 +100,15 @@ impl FrameSource {
         &self.name
     }
 
+    /// The number of frames, when known before reading them: for a directory, its image files
+    /// (a bad one still ends the sequence early); `None` for a y4m stream.
+    pub fn frame_count(&self) -> Option<usize> {
+        match &self.frames {
+            Frames::Files(files) => Some(self.next_index + files.len()),
+            Frames::Y4m(_) => None,
+        }
+    }
+
     /// The next frame and the name of the file it came from, `None` at the end.
     fn read_next(&mut self, index: usize) -> Result<Option<(Frame, String)>, InputError> {
         match &mut self.frames {
@@ -223,6 +232,10 @@ mod tests {
         }
         write_png(&dir.join(".hidden.png"), 9, 9, 0);
         fs::write(dir.join(".DS_Store"), "junk").unwrap();
+        let mut source = FrameSource::open(dir.as_os_str()).unwrap();
+        assert_eq!(source.frame_count(), Some(4));
+        assert!(source.next().is_some());
+        assert_eq!(source.frame_count(), Some(4));
         let source = FrameSource::open(dir.as_os_str()).unwrap();
         assert_eq!(first_pixels(source), [1, 2, 3, 4]);
         fs::remove_dir_all(dir).unwrap();

@@ -1,10 +1,10 @@
 //! Seeded synthetic sequences with exact ground truth.
 //!
-//! A [`Scene`] is a procedural [`Texture`] on a plane; a camera sees it through a [`Homography`]
-//! (frame 0 sees it unwarped), so the true position in any frame of every point of frame 0 is
-//! known exactly. Frames are area-sampled, lit ([`Lighting`]), given sensor noise and quantised
-//! to 8 bits. Everything is fixed by a seed: the same [`SceneSpec`] renders the same frames,
-//! bit for bit, on any machine.
+//! A [`Scene`] is a procedural [`Texture`] on a plane, with [`MovingObject`]s in front of it; a
+//! camera sees it through a [`Homography`] (frame 0 sees it unwarped), so the true position in
+//! any frame of every point of frame 0 is known exactly. Frames are area-sampled, lit
+//! ([`Lighting`]), given sensor noise and quantised to 8 bits. Everything is fixed by a seed:
+//! the same [`SceneSpec`] renders the same frames, bit for bit, on any machine.
 //!
 //! ```
 //! use host_sim::synth::{grid_points, pair, textured_points, true_position, Homography, SceneSpec};
@@ -17,6 +17,7 @@
 //! ```
 
 mod homography;
+mod object;
 mod points;
 mod render;
 mod rng;
@@ -25,6 +26,7 @@ mod sequence;
 mod texture;
 
 pub use homography::Homography;
+pub use object::{MovingObject, Surface};
 pub use points::{grid_points, textured_points};
 pub use render::{area_sample, Exposure, Lighting};
 pub use rng::{lattice, mix, SplitMix64};

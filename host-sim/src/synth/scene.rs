@@ -1,6 +1,7 @@
 //! Scenes and frame pairs with exact ground truth.
 
 use super::homography::Homography;
+use super::object::MovingObject;
 use super::render::{area_sample, Exposure, Lighting};
 use super::rng::SplitMix64;
 use super::texture::{Extent, Texture};
@@ -51,14 +52,16 @@ impl SceneSpec {
     }
 }
 
-/// A textured plane seen by a camera. Frame 0 sees texture point (`u`, `v`) at pixel position
-/// (`u`, `v`); a frame warped by `H` sees it at `H(u, v)`.
+/// A textured plane seen by a camera, with objects moving over it. Frame 0 sees plane point
+/// (`u`, `v`) at pixel position (`u`, `v`); a frame warped by `H` sees it at `H(u, v)`.
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// How the scene was made.
     pub spec: SceneSpec,
     /// The plane's texture.
     pub texture: Texture,
+    /// Objects in front of the plane, each drawn over the ones before it.
+    pub objects: Vec<MovingObject>,
 }
 
 impl Scene {
@@ -70,11 +73,41 @@ impl Scene {
         Self {
             spec,
             texture: Texture::random(spec.seed, extent),
+            objects: Vec::new(),
         }
     }
 
-    /// The frame seen through `warp` under `lighting`. `frame_index` selects the noise, so that
-    /// two frames of one scene have independent noise and re-rendering a frame repeats it.
+    /// The same scene with `objects` in front of the plane, the last one on top.
+    pub fn with_objects(self, objects: Vec<MovingObject>) -> Self {
+        Self { objects, ..self }
+    }
+
+    /// The grey level of plane point (`u`, `v`) at frame `frame`: the texture, with the objects
+    /// that cover it drawn over it.
+    pub fn value(&self, frame: f64, u: f64, v: f64) -> f64 {
+        self.objects
+            .iter()
+            .fold(self.texture.value(u, v), |below, object| {
+                let alpha = object.coverage(frame, u, v);
+                if alpha > 0.0 {
+                    alpha * object.value(frame, u, v) + (1.0 - alpha) * below
+                } else {
+                    below
+                }
+            })
+    }
+
+    /// The index of the topmost object covering plane point (`u`, `v`) at frame `frame`, or
+    /// `None` where the background shows.
+    pub fn object_at(&self, frame: f64, u: f64, v: f64) -> Option<usize> {
+        self.objects
+            .iter()
+            .rposition(|object| object.covers(frame, u, v))
+    }
+
+    /// The frame seen through `warp` under `lighting`. `frame_index` places the objects and
+    /// selects the noise, so that two frames of one scene have independent noise and
+    /// re-rendering a frame repeats it.
     ///
     /// Panics if `warp` is singular.
     pub fn render(&self, warp: &Homography, lighting: Lighting, frame_index: u64) -> Frame {
@@ -82,7 +115,7 @@ impl Scene {
         let inverse = warp.inverse().expect("a camera warp is invertible");
         let radiance = area_sample(w, h, self.spec.supersample, |x, y| {
             let (u, v) = inverse.apply(x, y);
-            self.texture.value(u, v)
+            self.value(frame_index as f64, u, v)
         });
         let exposure = Exposure {
             lighting,

@@ -78,7 +78,8 @@ impl Extent {
 #[derive(Debug, Clone)]
 pub struct Texture {
     octaves: [Octave; OCTAVES.len()],
-    mask: Octave,
+    /// The contrast mask; `None` keeps full contrast everywhere.
+    mask: Option<Octave>,
     waves: Vec<Wave>,
     features: FeatureIndex,
 }
@@ -98,12 +99,21 @@ impl Texture {
             .extend((0..shapes).map(|_| Feature::shape(extent.random_point(&mut rng), &mut rng)));
         let octaves =
             OCTAVES.map(|(wavelength, amplitude)| Octave::random(&mut rng, wavelength, amplitude));
-        let mask = Octave::random(&mut rng, MASK_WAVELENGTH, 1.0);
+        let mask = Some(Octave::random(&mut rng, MASK_WAVELENGTH, 1.0));
         Self {
             octaves,
             mask,
             waves,
             features: FeatureIndex::new(features, extent),
+        }
+    }
+
+    /// Like [`Texture::random`], without the nearly flat regions: detail at full contrast
+    /// everywhere, for small surfaces that must be trackable all over.
+    pub fn without_flat_regions(seed: u64, extent: Extent) -> Self {
+        Self {
+            mask: None,
+            ..Self::random(seed, extent)
         }
     }
 
@@ -121,7 +131,9 @@ impl Texture {
 
     /// The contrast mask in `[0, 1]`: zero over the nearly flat regions.
     fn contrast(&self, u: f64, v: f64) -> f64 {
-        smoothstep(MASK_EDGES.0, MASK_EDGES.1, self.mask.value(u, v))
+        self.mask.as_ref().map_or(1.0, |mask| {
+            smoothstep(MASK_EDGES.0, MASK_EDGES.1, mask.value(u, v))
+        })
     }
 }
 

@@ -1,0 +1,121 @@
+//! The `track` command line: its flags, their rules, and its usage text.
+
+use std::ffi::OsString;
+
+use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
+use crate::commands::track::TrackOptions;
+use crate::tracking::MAX_TRACKS;
+
+/// The usage text of `host-sim track --help`.
+pub const USAGE: &str = "\
+host-sim track: the library's KLT tracker over a sequence: corners detected, followed with
+Lucas-Kanade, checked (forward-backward, residual, appearance), dropped and refilled.
+
+Usage: host-sim track INPUT --out tracks.csv [options]
+
+INPUT:
+  a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file (the Y plane),
+  or - for y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - | host-sim track - ...)
+
+Options:
+  --out FILE        tracks, one row per live track per frame (see below)
+  --max-tracks N    number of tracks aimed for, 1 to 1000 [default: 100]
+  --viz DIR         one PNG per frame (000000.png, ...) with each track's trail over its last
+                    10 frames, coloured by id; DIR is created if missing
+  -h, --help        print this help
+
+tracks.csv columns:
+  frame     frame index, from 0
+  id        track id; ids are never reused, and a track's first row is the frame it was
+            detected in
+  x,y       position in px, from the centre of the top-left pixel, x right, y down
+  age       frames the track has been followed since it was detected
+  residual  mean absolute intensity residual of its last step, grey levels
+
+A bad frame ends the run with an error naming it; tracks.csv then holds every frame before it.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line.
+";
+
+const FLAGS: &[Flag] = &[
+    Flag::value("--out"),
+    Flag::value("--max-tracks"),
+    Flag::value("--viz"),
+];
+
+const TRACKS: Rule<i64> = Rule {
+    accepts: |n| (1..=MAX_TRACKS as i64).contains(&n),
+    says: "must be between 1 and 1000",
+};
+
+/// Parses the words after `track`; `None` means help was asked for.
+pub fn parse_options(args: &[OsString]) -> Result<Option<TrackOptions>, UsageError> {
+    match parse(args, FLAGS, 1)? {
+        Parsed::Help => Ok(None),
+        Parsed::Flags(matches) => options(&matches).map(Some),
+    }
+}
+
+fn options(matches: &Matches) -> Result<TrackOptions, UsageError> {
+    let Some(input) = matches.positionals().first() else {
+        return Err(UsageError::new(
+            "INPUT",
+            "is required: a directory of frames, a .y4m file or - for standard input",
+        ));
+    };
+    Ok(TrackOptions {
+        input: input.clone(),
+        out: matches.required_path("--out")?,
+        // Range-checked by the rule, so the conversion cannot truncate.
+        max_tracks: matches.integer("--max-tracks", 100, TRACKS)? as usize,
+        viz: matches.path("--viz"),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parsed(line: &str) -> Result<Option<TrackOptions>, UsageError> {
+        let words: Vec<OsString> = line.split_whitespace().map(OsString::from).collect();
+        parse_options(&words)
+    }
+
+    fn error(line: &str) -> String {
+        parsed(line).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn defaults_and_every_option() {
+        let options = parsed("clip.y4m --out t.csv").unwrap().unwrap();
+        assert_eq!(options.input, OsString::from("clip.y4m"));
+        assert_eq!((options.max_tracks, options.viz), (100, None));
+        let options = parsed("- --out t.csv --max-tracks 250 --viz pics")
+            .unwrap()
+            .unwrap();
+        assert_eq!(options.input, OsString::from("-"));
+        assert_eq!(options.max_tracks, 250);
+        assert_eq!(options.viz.unwrap().to_str(), Some("pics"));
+    }
+
+    #[test]
+    fn mistakes_name_the_flag() {
+        assert_eq!(
+            error("frames --out t.csv --max-tracks 0"),
+            "--max-tracks: must be between 1 and 1000 (got 0)"
+        );
+        assert_eq!(
+            error("frames --out t.csv --max-tracks 1001"),
+            "--max-tracks: must be between 1 and 1000 (got 1001)"
+        );
+        assert_eq!(error("frames"), "--out: is required");
+        assert!(error("--out t.csv").starts_with("INPUT: is required"));
+        assert!(error("a b --out t.csv").starts_with("'b': unexpected argument"));
+    }
+
+    #[test]
+    fn help_is_not_an_error() {
+        assert_eq!(parsed("--max-tracks 0 --help"), Ok(None));
+    }
+}

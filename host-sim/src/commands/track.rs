@@ -1,0 +1,150 @@
+//! `host-sim track`: the library's KLT tracker over a sequence, one CSV row per live track per
+//! frame, and optionally a picture of the trails per frame.
+
+use std::ffi::OsString;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use super::CommandError;
+use crate::io::csv::{CsvWriter, Fixed4};
+use crate::io::images::write_rgb_png;
+use crate::io::{
+    create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
+};
+use crate::tracking::{config_for, track_sequence, TrackedFrame, TrackingFailure};
+use crate::viz::Trails;
+
+/// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
+/// residual in grey levels.
+pub const COLUMNS: [&str; 6] = ["frame", "id", "x", "y", "age", "residual"];
+
+/// Everything `track` needs, validated by the command line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TrackOptions {
+    /// The sequence: a directory, a y4m file, or `-` for y4m on standard input.
+    pub input: OsString,
+    /// Where tracks.csv goes.
+    pub out: PathBuf,
+    /// The number of tracks aimed for.
+    pub max_tracks: usize,
+    /// Where the trail pictures go, if anywhere.
+    pub viz: Option<PathBuf>,
+}
+
+impl From<TrackingFailure> for CommandError {
+    fn from(failure: TrackingFailure) -> Self {
+        CommandError::Processing(format!("cannot track {failure}"))
+    }
+}
+
+/// Runs `track`.
+///
+/// The CSV is created before any work (an unwritable path fails at once) and committed at the
+/// end; when a frame is bad, the rows of the frames before it are committed and the bad frame
+/// is the error. Nothing is committed when no frame could be read, or when writing the CSV
+/// itself failed (it could end in the middle of a frame).
+pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
+    let out = AtomicFile::create(&options.out)?;
+    if let Some(dir) = &options.viz {
+        create_output_dir(dir)?;
+    }
+    let source = FrameSource::open(&options.input)?;
+    let mut progress = Progress::new("track", source.frame_count());
+    let mut csv = CsvWriter::new(out, &COLUMNS).map_err(|e| write_error(&options.out, &e))?;
+    let mut trails = Trails::new();
+    let (mut frames_done, mut csv_failed) = (0, false);
+
+    let frames = source.map(|frame| frame.map_err(CommandError::from));
+    let configure = |width, height| config_for(width, height, options.max_tracks);
+    let outcome = track_sequence(frames, configure, |tracked| {
+        // The picture first: a frame's rows are only written once all its outputs are.
+        if let Some(dir) = &options.viz {
+            trails.update(tracked.tracks);
+            let picture = trails.draw(tracked.frame).into_image();
+            write_rgb_png(&dir.join(frame_picture_name(tracked.index)), &picture)?;
+        }
+        write_rows(&mut csv, tracked).map_err(|e| {
+            csv_failed = true;
+            write_error(&options.out, &e)
+        })?;
+        frames_done = tracked.index + 1;
+        progress.update(frames_done);
+        Ok(())
+    });
+    progress.finish();
+    if frames_done > 0 && !csv_failed {
+        csv.into_inner().commit()?;
+    }
+    outcome.map(|_| ())
+}
+
+/// The rows of one frame: every live track, oldest first.
+pub(crate) fn write_rows(
+    csv: &mut CsvWriter<impl Write>,
+    tracked: &TrackedFrame<'_>,
+) -> io::Result<()> {
+    for track in tracked.tracks {
+        csv.record(&[
+            &tracked.index,
+            &track.id,
+            &Fixed4(track.position.x.to_num()),
+            &Fixed4(track.position.y.to_num()),
+            &track.age,
+            &Fixed4(track.residual.to_num()),
+        ])?;
+    }
+    Ok(())
+}
+
+/// The file name of frame `index`'s picture: zero-padded, so that names sort like frames and
+/// `ffmpeg -i DIR/%06d.png` reads them back.
+pub fn frame_picture_name(index: usize) -> String {
+    format!("{index:06}.png")
+}
+
+/// An error writing the output at `path`.
+pub(crate) fn write_error(path: &Path, error: &io::Error) -> CommandError {
+    CommandError::Output(OutputError::new(
+        path,
+        format!("cannot write: {}", describe_io_error(error)),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel::track::{FrameReport, Track};
+    use kestrel::{Point, Q16};
+
+    #[test]
+    fn rows_carry_the_frame_the_id_the_position_and_more() {
+        let frame = crate::Frame::filled(4, 4, 0);
+        let tracks = [Track {
+            id: 7,
+            position: Point::from_f32(1.5, 2.25),
+            age: 3,
+            residual: Q16::from_num(0.5),
+            born: 2,
+        }];
+        let tracked = TrackedFrame {
+            index: 5,
+            frame: &frame,
+            tracks: &tracks,
+            report: FrameReport::default(),
+            seconds: 0.0,
+        };
+        let mut csv = CsvWriter::new(Vec::new(), &COLUMNS).unwrap();
+        write_rows(&mut csv, &tracked).unwrap();
+        let text = String::from_utf8(csv.into_inner()).unwrap();
+        assert_eq!(
+            text,
+            "frame,id,x,y,age,residual\n5,7,1.5000,2.2500,3,0.5000\n"
+        );
+    }
+
+    #[test]
+    fn picture_names_sort_like_frames() {
+        assert_eq!(frame_picture_name(7), "000007.png");
+        assert!(frame_picture_name(99) < frame_picture_name(100));
+    }
+}

@@ -1,0 +1,240 @@
+//! The library's KLT tracker run over a sequence of host frames, in host-allocated buffers.
+
+use std::fmt;
+use std::time::Instant;
+
+use kestrel::detect::grid::{Grid, MAX_CELLS_PER_SIDE};
+use kestrel::detect::Corner;
+use kestrel::lk::scratch_len;
+use kestrel::track::{
+    detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,
+    TrackerConfig, TrackerError,
+};
+
+use crate::Frame;
+
+/// The most tracks host-sim follows at once.
+pub const MAX_TRACKS: usize = 1000;
+
+/// Tracks allowed per grid cell; with about one cell per two tracks, a cell can take half again
+/// its share.
+const PER_CELL: u8 = 3;
+
+/// The library's default settings for `max_tracks` tracks on `width` x `height` frames:
+/// refill below 80% of the target, and a grid of about one cell per two tracks shaped like the
+/// frame (8 x 6 cells for 100 tracks at 4:3).
+///
+/// ```
+/// use host_sim::tracking::config_for;
+/// let config = config_for(320, 240, 100);
+/// assert_eq!((config.max_tracks, config.refill_below), (100, 80));
+/// assert_eq!((config.grid.cols, config.grid.rows), (8, 6));
+/// ```
+pub fn config_for(width: usize, height: usize, max_tracks: usize) -> TrackerConfig {
+    let cells = max_tracks.div_ceil(2).max(1) as f64;
+    let aspect = width as f64 / height.max(1) as f64;
+    let side = |v: f64| (v.round() as usize).clamp(1, MAX_CELLS_PER_SIDE);
+    let cols = side((cells * aspect).sqrt());
+    let rows = side(cells / cols as f64);
+    TrackerConfig {
+        max_tracks,
+        refill_below: max_tracks * 4 / 5,
+        grid: Grid {
+            cols,
+            rows,
+            per_cell: PER_CELL,
+        },
+        ..TrackerConfig::default()
+    }
+}
+
+/// A tracker error, with the frame it happened on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TrackingFailure {
+    /// The frame, counted from 0.
+    pub frame: usize,
+    /// What the library said.
+    pub error: TrackerError,
+}
+
+impl fmt::Display for TrackingFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "frame {}: {}", self.frame, self.error)
+    }
+}
+
+impl std::error::Error for TrackingFailure {}
+
+/// What the tracker made of one frame.
+#[derive(Debug, Clone, Copy)]
+pub struct TrackedFrame<'a> {
+    /// The frame's index, from 0.
+    pub index: usize,
+    /// The frame.
+    pub frame: &'a Frame,
+    /// The live tracks after it.
+    pub tracks: &'a [Track],
+    /// What happened in it.
+    pub report: FrameReport,
+    /// Time the library took on it (pyramid, tracking, gates, detection), seconds.
+    pub seconds: f64,
+}
+
+/// Runs a tracker (capacity [`MAX_TRACKS`]) over `frames` and hands every frame's result to
+/// `each`, in order; `configure` gives its settings for the first frame's width and height.
+/// Returns the number of frames.
+///
+/// Stops at the first error, from `frames` (a bad frame), from the tracker, or from `each`,
+/// once the frames before it were handed to `each`.
+pub fn track_sequence<E>(
+    frames: impl IntoIterator<Item = Result<Frame, E>>,
+    configure: impl FnOnce(usize, usize) -> TrackerConfig,
+    mut each: impl FnMut(&TrackedFrame<'_>) -> Result<(), E>,
+) -> Result<usize, E>
+where
+    E: From<TrackingFailure>,
+{
+    let mut frames = frames.into_iter();
+    let Some(first) = frames.next().transpose()? else {
+        return Ok(0);
+    };
+    let fail = |frame: usize| move |error| E::from(TrackingFailure { frame, error });
+    let config = configure(first.width, first.height);
+    let mut buffers = HostBuffers::new(&config, first.width, first.height);
+    let mut tracker = Tracker::<MAX_TRACKS>::new(config, first.width, first.height, buffers.lend())
+        .map_err(fail(0))?;
+
+    let clock = Instant::now();
+    let view = first
+        .view()
+        .map_err(|_| fail(0)(TrackerError::BadFrameSize))?;
+    let report = tracker.start(view).map_err(fail(0))?;
+    let seconds = clock.elapsed().as_secs_f64();
+    each(&TrackedFrame {
+        index: 0,
+        frame: &first,
+        tracks: tracker.tracks(),
+        report,
+        seconds,
+    })?;
+
+    let mut prev = first;
+    let mut count = 1;
+    for next in frames {
+        let next = next?;
+        let index = count;
+        let bad_size = |_| fail(index)(TrackerError::FrameSizeMismatch);
+        let (prev_view, next_view) = (
+            prev.view().map_err(bad_size)?,
+            next.view().map_err(bad_size)?,
+        );
+        let clock = Instant::now();
+        let report = tracker
+            .process(prev_view, next_view, None)
+            .map_err(fail(index))?;
+        let seconds = clock.elapsed().as_secs_f64();
+        each(&TrackedFrame {
+            index,
+            frame: &next,
+            tracks: tracker.tracks(),
+            report,
+            seconds,
+        })?;
+        prev = next;
+        count += 1;
+    }
+    Ok(count)
+}
+
+/// A tracker's buffers on the heap, allocated once for a frame size as firmware would in
+/// statics.
+#[derive(Debug, Clone)]
+pub struct HostBuffers {
+    /// Two pyramids and FAST's rows.
+    pub storage: Vec<u8>,
+    /// LK scratch.
+    pub lk_scratch: Vec<i16>,
+    /// Shi-Tomasi scratch.
+    pub detect_scratch: Vec<i32>,
+    /// Candidate corners: three per track.
+    pub candidates: Vec<Corner>,
+}
+
+impl HostBuffers {
+    /// Buffers for a tracker of `config` on `width` x `height` frames.
+    pub fn new(config: &TrackerConfig, width: usize, height: usize) -> Self {
+        // Three candidates a track spread new tracks well even where one patch is busy.
+        let candidates = 3 * config.max_tracks;
+        Self {
+            storage: vec![0; tracker_storage_len(width, height, config.pyramid_levels())],
+            lk_scratch: vec![0; scratch_len(config.lk.window)],
+            detect_scratch: vec![0; detect_scratch_len(width, config.detect_level, candidates)],
+            candidates: vec![Corner::default(); candidates],
+        }
+    }
+
+    /// The buffers, lent to a tracker.
+    pub fn lend(&mut self) -> TrackerBuffers<'_> {
+        TrackerBuffers {
+            storage: &mut self.storage,
+            lk_scratch: &mut self.lk_scratch,
+            detect_scratch: &mut self.detect_scratch,
+            candidates: &mut self.candidates,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{CameraPath, Scene, SceneSpec, Sequence};
+
+    #[test]
+    fn grids_follow_the_track_count_and_the_frame_shape() {
+        let grid = |w, h, n| {
+            let g = config_for(w, h, n).grid;
+            (g.cols, g.rows)
+        };
+        assert_eq!(grid(160, 120, 100), (8, 6));
+        assert_eq!(grid(640, 360, 100), (9, 6));
+        assert_eq!(grid(100, 400, 40), (2, 10));
+        assert_eq!(grid(320, 240, 1), (1, 1));
+        assert_eq!(grid(320, 240, MAX_TRACKS), (26, 19));
+        let config = config_for(320, 240, MAX_TRACKS);
+        let room = config.grid.cols * config.grid.rows * usize::from(config.grid.per_cell);
+        assert!(room >= MAX_TRACKS);
+    }
+
+    #[test]
+    fn every_frame_is_handed_over_until_the_first_error() {
+        let scene = Scene::new(SceneSpec::new(96, 72, 3).with_noise(1.0));
+        let path = CameraPath {
+            pan: (0.5, 0.0),
+            ..CameraPath::still((47.5, 35.5))
+        };
+        let sequence = Sequence::new(scene, path, 4);
+        let frames: Vec<Result<Frame, String>> = sequence
+            .frames()
+            .map(Ok)
+            .chain([Err("broken".to_owned())])
+            .collect();
+        let mut seen = Vec::new();
+        let outcome = track_sequence(
+            frames,
+            |w, h| config_for(w, h, 30),
+            |f| {
+                seen.push((f.index, f.tracks.len()));
+                Ok(())
+            },
+        );
+        assert_eq!(outcome, Err("broken".to_owned()));
+        assert_eq!(seen.len(), 4);
+        assert!(seen.iter().all(|&(_, live)| live > 0), "{seen:?}");
+    }
+
+    impl From<TrackingFailure> for String {
+        fn from(failure: TrackingFailure) -> Self {
+            failure.to_string()
+        }
+    }
+}

@@ -1,0 +1,614 @@
+//! The KLT track manager: corners found, followed, checked, dropped and replaced, frame after
+//! frame, with ids that are never reused.
+//!
+//! Every frame, [`Tracker::process`]
+//! 1. builds the new frame's pyramid next to the previous one (the previous frame's pixels are
+//!    the caller's buffer, passed again: nothing is copied);
+//! 2. follows every live track with LK, from a caller's prediction when there is one (a gyro);
+//! 3. drops a track that LK lost, whose residual stands out (above
+//!    [`TrackerConfig::max_residual`], or [`TrackerConfig::residual_ratio`] times the frame's
+//!    median), that no longer looks like the feature it was born on
+//!    ([`TrackerConfig::min_correlation`]), or whose way back misses its start by more than
+//!    [`TrackerConfig::fb_threshold`]: the cheap gates first, the backward LK last;
+//! 4. when fewer than [`TrackerConfig::refill_below`] tracks are left, detects corners on
+//!    pyramid level [`TrackerConfig::detect_level`] away from the live tracks, spreads them
+//!    with a [`Grid`](crate::detect::grid::Grid), and starts new tracks up to
+//!    [`TrackerConfig::max_tracks`] where LK accepts the window.
+//!
+//! Memory: the caller's [`TrackerBuffers`] (two pyramids, scratch, candidates), and inside the
+//! tracker 24 bytes per track plus 49 for its birth appearance (7.3 KB for 100 tracks).
+//!
+//! ```
+//! use kestrel::detect::Corner;
+//! use kestrel::frame::ImageView;
+//! use kestrel::lk::scratch_len;
+//! use kestrel::track::{
+//!     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig,
+//! };
+//!
+//! const W: usize = 64;
+//! const H: usize = 48;
+//! let config = TrackerConfig { max_tracks: 12, refill_below: 8, ..TrackerConfig::default() };
+//!
+//! // Firmware would make these `static`.
+//! let mut storage = [0u8; tracker_storage_len(W, H, 3)];
+//! let mut lk_scratch = [0i16; scratch_len(21)];
+//! let mut detect_scratch = [0i32; detect_scratch_len(W, 1, 24)];
+//! let mut candidates = [Corner::default(); 24];
+//! let buffers = TrackerBuffers {
+//!     storage: &mut storage,
+//!     lk_scratch: &mut lk_scratch,
+//!     detect_scratch: &mut detect_scratch,
+//!     candidates: &mut candidates,
+//! };
+//! let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
+//!
+//! // Smooth blobs, then the same blobs 1.5 px further right: two camera buffers.
+//! let scene = |shift: f32| -> [u8; W * H] {
+//!     core::array::from_fn(|i| {
+//!         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+//!         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
+//!     })
+//! };
+//! let (a, b) = (scene(0.0), scene(1.5));
+//! let (first, second) = (ImageView::packed(&a, W, H).unwrap(), ImageView::packed(&b, W, H).unwrap());
+//!
+//! let report = tracker.start(first).unwrap();
+//! assert!(report.added > 0);
+//! let born: heapless::Vec<_, 12> = tracker.tracks().iter().map(|t| (t.id, t.position)).collect();
+//!
+//! let report = tracker.process(first, second, None).unwrap();
+//! assert!(report.tracked > 0);
+//! for track in tracker.tracks().iter().filter(|t| t.age == 1) {
+//!     let (_, start) = born.iter().find(|(id, _)| *id == track.id).unwrap();
+//!     let (dx, dy) = (track.position.x - start.x, track.position.y - start.y);
+//!     assert!((dx.to_num::<f32>() - 1.5).abs() < 0.1 && dy.to_num::<f32>().abs() < 0.1);
+//! }
+//! ```
+
+mod anchor;
+mod buffers;
+mod config;
+mod fingerprint;
+mod follow;
+mod refill;
+
+pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
+pub use config::{Detector, TrackerConfig};
+
+use crate::detect::DetectError;
+use crate::frame::{ImageView, MAX_DIMENSION};
+use crate::lk::{scratch_len, LkError};
+use crate::pyramid::{Pyramid, PyramidError};
+use crate::q16::{Point, Q16};
+use anchor::Anchor;
+use buffers::StorageParts;
+use config::Checked;
+use fingerprint::Fingerprint;
+use follow::Follow;
+use heapless::Vec;
+use refill::DetectBuffers;
+
+/// One tracked feature.
+///
+/// ```
+/// use kestrel::track::Track;
+/// let t = Track::default();
+/// assert_eq!((t.id, t.age, t.born), (0, 0, 0));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Track {
+    /// Identity, unique among the tracks of a tracker (see [`Tracker::process`] on wrapping).
+    pub id: u32,
+    /// Position in the latest frame, px.
+    pub position: Point,
+    /// Frames the track has been followed through since it was detected (0 on its first frame).
+    pub age: u32,
+    /// Mean absolute residual of the latest step, grey levels (0 on its first frame).
+    pub residual: Q16,
+    /// Index of the frame it was detected in.
+    pub born: u32,
+}
+
+/// What happened to the tracks in one frame.
+///
+/// ```
+/// use kestrel::track::FrameReport;
+/// let r = FrameReport { live: 90, tracked: 85, added: 5, ..FrameReport::default() };
+/// assert_eq!(r.dropped(), 0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FrameReport {
+    /// Tracks alive after the frame.
+    pub live: usize,
+    /// Tracks followed into this frame from the previous one.
+    pub tracked: usize,
+    /// Tracks dropped by the forward-backward check.
+    pub dropped_fb: usize,
+    /// Tracks dropped by the residual gate.
+    pub dropped_residual: usize,
+    /// Tracks dropped because they no longer look like the feature they were born on.
+    pub dropped_appearance: usize,
+    /// Tracks LK lost: out of the frame, too little texture, or not converged.
+    pub dropped_lost: usize,
+    /// New tracks started in this frame.
+    pub added: usize,
+    /// True when detection ran in this frame.
+    pub detected: bool,
+}
+
+impl FrameReport {
+    /// Tracks dropped for any reason.
+    ///
+    /// ```
+    /// use kestrel::track::FrameReport;
+    /// let r = FrameReport { dropped_fb: 1, dropped_residual: 2, dropped_lost: 3, ..FrameReport::default() };
+    /// assert_eq!(r.dropped(), 6);
+    /// ```
+    pub fn dropped(&self) -> usize {
+        self.dropped_fb + self.dropped_residual + self.dropped_appearance + self.dropped_lost
+    }
+}
+
+/// Why a tracker could not be made, or could not process a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TrackerError {
+    /// The LK settings are invalid.
+    Lk(LkError),
+    /// The detector or grid settings are invalid.
+    Detect(DetectError),
+    /// `max_tracks` is 0 or larger than the tracker's capacity `N`.
+    BadMaxTracks,
+    /// `refill_below` is larger than `max_tracks`.
+    BadRefillThreshold,
+    /// `detect_level` is larger than [`crate::pyramid::MAX_LEVEL`].
+    BadDetectLevel,
+    /// `fb_threshold` is NaN or negative.
+    BadFbThreshold,
+    /// `max_residual` or `residual_ratio` is NaN or negative.
+    BadMaxResidual,
+    /// `min_correlation` is NaN or above 1.
+    BadMinCorrelation,
+    /// The frame size is zero or larger than [`MAX_DIMENSION`].
+    BadFrameSize,
+    /// [`TrackerBuffers::storage`] is shorter than [`tracker_storage_len`].
+    StorageTooSmall,
+    /// [`TrackerBuffers::lk_scratch`] is shorter than [`crate::lk::scratch_len`].
+    LkScratchTooSmall,
+    /// [`TrackerBuffers::detect_scratch`] is shorter than [`detect_scratch_len`] (Shi-Tomasi).
+    DetectScratchTooSmall,
+    /// [`TrackerBuffers::candidates`] holds fewer than `max_tracks` corners.
+    CandidatesTooSmall,
+    /// A frame is not the size the tracker was made for.
+    FrameSizeMismatch,
+    /// [`Tracker::process`] was called before [`Tracker::start`].
+    NotStarted,
+    /// The previous frame given is not the frame given last: its size or pixels differ.
+    NotThePreviousFrame,
+    /// A pyramid could not be built (never expected once the buffers were accepted).
+    Pyramid(PyramidError),
+}
+
+impl core::fmt::Display for TrackerError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            TrackerError::Lk(e) => write!(f, "tracker LK settings: {e}"),
+            TrackerError::Detect(e) => write!(f, "tracker detector settings: {e}"),
+            TrackerError::BadMaxTracks => f.write_str("max tracks must be 1 to the capacity"),
+            TrackerError::BadRefillThreshold => {
+                f.write_str("refill threshold must be at most max tracks")
+            }
+            TrackerError::BadDetectLevel => f.write_str("detection level must be at most 7"),
+            TrackerError::BadFbThreshold => {
+                f.write_str("forward-backward threshold must be a number >= 0")
+            }
+            TrackerError::BadMaxResidual => {
+                f.write_str("max residual and residual ratio must be numbers >= 0")
+            }
+            TrackerError::BadMinCorrelation => f.write_str("min correlation must be a number <= 1"),
+            TrackerError::BadFrameSize => f.write_str("frame size must be 1 to 4096 px per side"),
+            TrackerError::StorageTooSmall => {
+                f.write_str("tracker storage is smaller than tracker_storage_len")
+            }
+            TrackerError::LkScratchTooSmall => {
+                f.write_str("LK scratch is smaller than scratch_len(window)")
+            }
+            TrackerError::DetectScratchTooSmall => {
+                f.write_str("detector scratch is smaller than detect_scratch_len")
+            }
+            TrackerError::CandidatesTooSmall => {
+                f.write_str("candidate buffer holds fewer corners than max tracks")
+            }
+            TrackerError::FrameSizeMismatch => {
+                f.write_str("frame size differs from the tracker's frame size")
+            }
+            TrackerError::NotStarted => f.write_str("no previous frame: call start first"),
+            TrackerError::NotThePreviousFrame => {
+                f.write_str("previous frame is not the frame given last")
+            }
+            TrackerError::Pyramid(e) => write!(f, "tracker pyramid: {e}"),
+        }
+    }
+}
+
+/// The previous frame, as far as the tracker remembers it.
+#[derive(Debug, Clone, Copy)]
+struct Previous {
+    fingerprint: Fingerprint,
+    /// Which half of the storage holds its pyramid.
+    half: usize,
+}
+
+/// A KLT tracker of at most `N` tracks over `width` x `height` frames, working in the caller's
+/// [`TrackerBuffers`]. See the [module documentation](self) for a whole example.
+#[derive(Debug)]
+pub struct Tracker<'a, const N: usize> {
+    config: TrackerConfig,
+    checked: Checked,
+    width: usize,
+    height: usize,
+    buffers: TrackerBuffers<'a>,
+    set: TrackSet<N>,
+    /// Index the next frame will get.
+    next_frame: u32,
+    previous: Option<Previous>,
+}
+
+impl<'a, const N: usize> Tracker<'a, N> {
+    /// A tracker for `width` x `height` frames, once `config` and the sizes of `buffers` are
+    /// checked: all the validation happens here, so that firmware finds a mistake at start-up.
+    ///
+    /// ```
+    /// use kestrel::track::{Tracker, TrackerBuffers, TrackerConfig, TrackerError};
+    /// let buffers = || TrackerBuffers {
+    ///     storage: &mut [],
+    ///     lk_scratch: &mut [],
+    ///     detect_scratch: &mut [],
+    ///     candidates: &mut [],
+    /// };
+    /// let config = TrackerConfig::default();
+    /// // The default wants 100 tracks; this tracker holds 50.
+    /// let small = Tracker::<50>::new(config, 160, 120, buffers());
+    /// assert_eq!(small.unwrap_err(), TrackerError::BadMaxTracks);
+    /// let empty = Tracker::<100>::new(config, 160, 120, buffers());
+    /// assert_eq!(empty.unwrap_err(), TrackerError::StorageTooSmall);
+    /// ```
+    pub fn new(
+        config: TrackerConfig,
+        width: usize,
+        height: usize,
+        buffers: TrackerBuffers<'a>,
+    ) -> Result<Self, TrackerError> {
+        let checked = config.validate(N)?;
+        let sides = 1..=MAX_DIMENSION;
+        if !sides.contains(&width) || !sides.contains(&height) {
+            return Err(TrackerError::BadFrameSize);
+        }
+        check_buffers(&config, width, height, &buffers)?;
+        Ok(Self {
+            config,
+            checked,
+            width,
+            height,
+            buffers,
+            set: TrackSet {
+                tracks: Vec::new(),
+                anchors: Vec::new(),
+                next_id: 0,
+            },
+            next_frame: 0,
+            previous: None,
+        })
+    }
+
+    /// Starts over on `frame`: drops every track, builds the frame's pyramid and detects new
+    /// tracks in it. Use it on the first frame, and to resynchronise after a lost frame. Ids
+    /// keep counting up and frames keep their indices.
+    ///
+    /// See the [module documentation](self).
+    pub fn start(&mut self, frame: ImageView<'_>) -> Result<FrameReport, TrackerError> {
+        self.check_size(&frame)?;
+        let levels = self.config.pyramid_levels();
+        // Keep the previous pyramid intact until this one is built, in case it fails.
+        let half = self.previous.map_or(0, |p| 1 - p.half);
+        let StorageParts {
+            halves: [first, second],
+            ..
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
+        let storage = if half == 0 { first } else { second };
+        Pyramid::build(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+
+        // A restart ends the previous frame's tracks; they are not counted as dropped.
+        self.set.clear();
+        let mut report = FrameReport::default();
+        self.refill(frame, half, &mut report)?;
+        Ok(self.finish_frame(&frame, half, report))
+    }
+
+    /// Follows the tracks from `prev` to `next`, drops the bad ones and refills.
+    ///
+    /// `prev` must be the frame given last (to [`Tracker::start`] or as `next`): the tracker
+    /// kept its pyramid but not its pixels. A cheap fingerprint of it is checked, and a
+    /// mismatch is [`TrackerError::NotThePreviousFrame`], with the tracks left as they were.
+    ///
+    /// `predict`, when given, maps a position in `prev` to its expected position in `next`
+    /// (from a gyro, or a motion model), where LK starts its search; the backward check starts
+    /// from the same displacement reversed.
+    ///
+    /// Ids count up from 0 and wrap after 2^32 new tracks; at 1000 new tracks per second that
+    /// is 49 days.
+    pub fn process(
+        &mut self,
+        prev: ImageView<'_>,
+        next: ImageView<'_>,
+        predict: Option<&dyn Fn(Point) -> Point>,
+    ) -> Result<FrameReport, TrackerError> {
+        self.check_size(&prev)?;
+        self.check_size(&next)?;
+        let previous = self.previous.ok_or(TrackerError::NotStarted)?;
+        if Fingerprint::of(&prev) != previous.fingerprint {
+            return Err(TrackerError::NotThePreviousFrame);
+        }
+        let levels = self.config.pyramid_levels();
+        let StorageParts {
+            halves: [first, second],
+            ..
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
+        let (old, new) = if previous.half == 0 {
+            (first, second)
+        } else {
+            (second, first)
+        };
+        let prev_pyramid =
+            Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
+        let next_pyramid = Pyramid::build(next, levels, new).map_err(TrackerError::Pyramid)?;
+
+        let mut report = FrameReport::default();
+        let follow = Follow {
+            checked: &self.checked,
+            prev: &prev_pyramid,
+            next: &next_pyramid,
+            predict,
+        };
+        follow
+            .all(
+                &mut self.set.tracks,
+                &mut self.set.anchors,
+                self.buffers.lk_scratch,
+                &mut report,
+            )
+            .map_err(TrackerError::Lk)?;
+        let half = 1 - previous.half;
+        if self.set.tracks.len() < self.config.refill_below {
+            self.refill(next, half, &mut report)?;
+        }
+        Ok(self.finish_frame(&next, half, report))
+    }
+
+    /// The live tracks, oldest first.
+    ///
+    /// ```
+    /// use kestrel::track::{Tracker, TrackerConfig};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+    /// # use kestrel::{detect::Corner, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+    /// # let mut candidates = [Corner::default(); 4];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+    /// assert!(tracker.tracks().is_empty());
+    /// ```
+    pub fn tracks(&self) -> &[Track] {
+        &self.set.tracks
+    }
+
+    /// The index of the latest frame (counted from 0, wrapping after 2^32 frames), or `None`
+    /// before the first.
+    ///
+    /// ```
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Tracker, TrackerBuffers, TrackerConfig};
+    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+    /// # let mut candidates = [Corner::default(); 4];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// # let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+    /// assert_eq!(tracker.frame_index(), None);
+    /// let flat = [100u8; 32 * 32];
+    /// let frame = ImageView::packed(&flat, 32, 32).unwrap();
+    /// tracker.start(frame).unwrap();
+    /// tracker.process(frame, frame, None).unwrap();
+    /// assert_eq!(tracker.frame_index(), Some(1));
+    /// ```
+    pub fn frame_index(&self) -> Option<u32> {
+        self.previous.map(|_| self.next_frame.wrapping_sub(1))
+    }
+
+    /// The configuration the tracker was made with.
+    ///
+    /// ```
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Tracker, TrackerBuffers, TrackerConfig};
+    /// # use kestrel::{detect::Corner, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+    /// # let mut candidates = [Corner::default(); 4];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };
+    /// let tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+    /// assert_eq!(tracker.config().refill_below, 2);
+    /// ```
+    pub fn config(&self) -> &TrackerConfig {
+        &self.config
+    }
+
+    fn check_size(&self, frame: &ImageView<'_>) -> Result<(), TrackerError> {
+        if (frame.width(), frame.height()) == (self.width, self.height) {
+            Ok(())
+        } else {
+            Err(TrackerError::FrameSizeMismatch)
+        }
+    }
+
+    /// Detects new tracks in `frame`, whose pyramid was just built into `half` of the storage.
+    fn refill(
+        &mut self,
+        frame: ImageView<'_>,
+        half: usize,
+        report: &mut FrameReport,
+    ) -> Result<(), TrackerError> {
+        let levels = self.config.pyramid_levels();
+        let StorageParts {
+            halves: [first, second],
+            fast_rows,
+        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
+        let storage = if half == 0 { first } else { second };
+        let pyramid =
+            Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+        let detect = DetectBuffers {
+            fast_rows,
+            scratch: self.buffers.detect_scratch,
+            candidates: self.buffers.candidates,
+        };
+        let birth = Birth {
+            config: &self.config,
+            checked: &self.checked,
+            size: (self.width, self.height),
+            pyramid: &pyramid,
+            born: self.next_frame,
+        };
+        self.set
+            .refill(birth, detect, self.buffers.lk_scratch, report)
+    }
+
+    /// Remembers `frame` as the previous frame, its pyramid in `half`, and counts it.
+    fn finish_frame(
+        &mut self,
+        frame: &ImageView<'_>,
+        half: usize,
+        mut report: FrameReport,
+    ) -> FrameReport {
+        self.previous = Some(Previous {
+            fingerprint: Fingerprint::of(frame),
+            half,
+        });
+        self.next_frame = self.next_frame.wrapping_add(1);
+        report.live = self.set.tracks.len();
+        report
+    }
+}
+
+/// The live tracks, their anchors (in the same order) and the id the next new one gets.
+#[derive(Debug)]
+struct TrackSet<const N: usize> {
+    tracks: Vec<Track, N>,
+    anchors: Vec<Anchor, N>,
+    next_id: u32,
+}
+
+impl<const N: usize> TrackSet<N> {
+    /// Ends every track.
+    fn clear(&mut self) {
+        self.tracks.clear();
+        self.anchors.clear();
+    }
+
+    /// Detects on `pyramid` of a frame of `size` and starts new tracks, born in frame `born`,
+    /// up to `config.max_tracks`. A corner becomes a track only where LK accepts its window:
+    /// otherwise it would be dropped on its first step and found again by the next refill,
+    /// frame after frame.
+    fn refill(
+        &mut self,
+        birth: Birth<'_, '_>,
+        buffers: DetectBuffers<'_>,
+        lk_scratch: &mut [i16],
+        report: &mut FrameReport,
+    ) -> Result<(), TrackerError> {
+        let Birth {
+            config,
+            checked,
+            size,
+            pyramid,
+            born,
+        } = birth;
+        let Some(level_image) = pyramid.level(config.detect_level) else {
+            return Ok(());
+        };
+        let live: Vec<Point, N> = self.tracks.iter().map(|t| t.position).collect();
+        let corners = refill::new_corners(config, &level_image, size, &live, buffers)
+            .map_err(TrackerError::Detect)?;
+        report.detected = true;
+        let check = &checked.texture_check;
+        for corner in corners {
+            if self.tracks.len() >= config.max_tracks {
+                break;
+            }
+            let position = corner.position;
+            let still = check
+                .track_point(pyramid, pyramid, position, None, lk_scratch)
+                .map_err(TrackerError::Lk)?;
+            if !still.is_tracked() {
+                continue;
+            }
+            let track = Track {
+                id: self.next_id,
+                position,
+                age: 0,
+                residual: Q16::ZERO,
+                born,
+            };
+            let anchor = Anchor::capture(&pyramid.base(), position);
+            if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
+                break;
+            }
+            self.next_id = self.next_id.wrapping_add(1);
+            report.added += 1;
+        }
+        Ok(())
+    }
+}
+
+/// Where and when new tracks are born, and by which rules.
+struct Birth<'c, 'p> {
+    config: &'c TrackerConfig,
+    checked: &'c Checked,
+    size: (usize, usize),
+    pyramid: &'c Pyramid<'p>,
+    born: u32,
+}
+
+/// Checks each buffer against the size the configuration needs.
+fn check_buffers(
+    config: &TrackerConfig,
+    width: usize,
+    height: usize,
+    buffers: &TrackerBuffers<'_>,
+) -> Result<(), TrackerError> {
+    let levels = config.pyramid_levels();
+    if buffers.storage.len() < tracker_storage_len(width, height, levels) {
+        return Err(TrackerError::StorageTooSmall);
+    }
+    if buffers.lk_scratch.len() < scratch_len(config.lk.window) {
+        return Err(TrackerError::LkScratchTooSmall);
+    }
+    let candidates = buffers.candidates.len();
+    if candidates < config.max_tracks {
+        return Err(TrackerError::CandidatesTooSmall);
+    }
+    let needs_scratch = matches!(config.detector, Detector::ShiTomasi(_));
+    let scratch = detect_scratch_len(width, config.detect_level, candidates);
+    if needs_scratch && buffers.detect_scratch.len() < scratch {
+        return Err(TrackerError::DetectScratchTooSmall);
+    }
+    Ok(())
+}

@@ -1,0 +1,139 @@
+//! Finding where to start new tracks: detect on one pyramid level away from the live tracks,
+//! space the new corners out, and bucket them over the frame.
+
+use super::config::{Detector, TrackerConfig};
+use crate::detect::{Corner, DetectError, ExclusionMask, Region};
+use crate::frame::ImageView;
+use crate::q16::Point;
+
+/// The memory one detection works in.
+pub(super) struct DetectBuffers<'b> {
+    /// FAST's rows.
+    pub fast_rows: &'b mut [u8],
+    /// Shi-Tomasi's scratch.
+    pub scratch: &'b mut [i32],
+    /// The candidates; the result is a prefix.
+    pub candidates: &'b mut [Corner],
+}
+
+/// Finds new corners on `level_image`, pyramid level `config.detect_level` of a
+/// `width` x `height` frame, at least `config.min_distance` px from every position in `live`
+/// and from each other, at most `config.grid.per_cell` per cell counting `live`.
+///
+/// Returns the corners, strongest first, in full-resolution coordinates: a prefix of
+/// `buffers.candidates`.
+pub(super) fn new_corners<'b>(
+    config: &TrackerConfig,
+    level_image: &ImageView<'_>,
+    (width, height): (usize, usize),
+    live: &[Point],
+    buffers: DetectBuffers<'b>,
+) -> Result<&'b [Corner], DetectError> {
+    let level = config.detect_level;
+    // Round the radius up so that the spacing is at least min_distance at full resolution.
+    let radius = config.min_distance.div_ceil(1 << level);
+    let mut mask = ExclusionMask::new(level_image.width(), level_image.height());
+    for &p in live {
+        mask.exclude_around(at_level(p, level), radius);
+    }
+    // Keep new corners far enough from the edge that most of their window sees the frame:
+    // LK repeats the edge pixels beyond it, a pattern that does not move with the scene.
+    let border = usize::from(config.border).div_ceil(1 << level);
+    let region = Region::full(level_image).clip(level_image.width(), level_image.height(), border);
+    let found = match &config.detector {
+        Detector::Fast(fast) => fast.detect(
+            level_image,
+            region,
+            Some(&mask),
+            buffers.fast_rows,
+            buffers.candidates,
+        ),
+        Detector::ShiTomasi(shi_tomasi) => shi_tomasi.detect(
+            level_image,
+            region,
+            Some(&mask),
+            buffers.scratch,
+            buffers.candidates,
+        ),
+    }?;
+    let found = buffers.candidates.get_mut(..found).unwrap_or(&mut []);
+    let spaced = space_out(found, &mut mask, radius);
+    let spaced = found.get_mut(..spaced).unwrap_or(&mut []);
+    for corner in spaced.iter_mut() {
+        corner.position = at_full_resolution(corner.position, level);
+    }
+    let selected = config.grid.select(width, height, spaced, live)?;
+    Ok(spaced.get(..selected).unwrap_or(&[]))
+}
+
+/// Keeps, strongest first, the corners outside `mask`, excluding `radius` around each one kept;
+/// moves them to the front and returns how many there are.
+///
+/// The detector already skipped corners near live tracks; this keeps the new ones apart, which
+/// FAST's 3 x 3 suppression alone does not.
+fn space_out(corners: &mut [Corner], mask: &mut ExclusionMask, radius: u16) -> usize {
+    let mut kept = 0;
+    for i in 0..corners.len() {
+        let Some(&corner) = corners.get(i) else {
+            break;
+        };
+        let (x, y) = corner.pixel();
+        if mask.is_excluded(x, y) {
+            continue;
+        }
+        mask.exclude_around(corner.position, radius);
+        if let Some(slot) = corners.get_mut(kept) {
+            *slot = corner;
+            kept += 1;
+        }
+    }
+    kept
+}
+
+/// A full-resolution position in the coordinates of pyramid level `level`.
+///
+/// Pixel `i` of level `l + 1` is centred on pixel `2i` of level `l` (the subsampling keeps the
+/// even pixels), so positions simply halve.
+fn at_level(p: Point, level: usize) -> Point {
+    Point::from_bits(p.x.to_bits() >> level, p.y.to_bits() >> level)
+}
+
+/// A position on pyramid level `level` in full-resolution coordinates.
+fn at_full_resolution(p: Point, level: usize) -> Point {
+    let up = |bits: i32| bits.saturating_mul(1 << level);
+    Point::from_bits(up(p.x.to_bits()), up(p.y.to_bits()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_halve_positions() {
+        let p = Point::from_f32(100.0, 61.0);
+        assert_eq!(at_level(p, 1), Point::from_f32(50.0, 30.5));
+        assert_eq!(at_full_resolution(Point::from_f32(50.0, 30.5), 1), p);
+        assert_eq!(at_level(p, 0), p);
+        let far = Point::from_f32(30000.0, -30000.0);
+        assert_eq!(
+            at_full_resolution(far, 3),
+            Point::from_bits(i32::MAX, i32::MIN)
+        );
+    }
+
+    #[test]
+    fn spacing_keeps_the_strongest_of_close_corners() {
+        let mut corners = [
+            Corner::new(50, 50, 90),
+            Corner::new(52, 51, 80),
+            Corner::new(80, 50, 70),
+            Corner::new(50, 20, 60),
+        ];
+        let mut mask = ExclusionMask::new(160, 120);
+        mask.exclude_around(Point::from_f32(80.0, 52.0), 4);
+        let kept = space_out(&mut corners, &mut mask, 4);
+        assert_eq!(kept, 2);
+        assert_eq!(corners[0].pixel(), (50, 50));
+        assert_eq!(corners[1].pixel(), (50, 20));
+    }
+}

@@ -6,6 +6,8 @@
 //! 2. [`pyramid`]: Gaussian pyramids in caller-owned storage.
 //! 3. [`detect`]: FAST-9 and Shi-Tomasi corners, spread over the frame by a grid.
 //! 4. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
+//! 5. [`dense`]: LK on a regular grid, the camera's dominant motion, and the boxes of what
+//!    moves besides it.
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
 //! can place it in a `static`.
@@ -23,6 +25,7 @@
     )
 )]
 
+pub mod dense;
 pub mod detect;
 pub mod frame;
 pub mod lk;

@@ -109,6 +109,7 @@ impl DominantMotion {
                 motion: Self::ZERO,
                 measured,
                 inliers: 0,
+                spread: 0.0,
             });
         }
         let mut model = Affine::translation(nodes.median(|f| f.0), nodes.median(|f| f.1));
@@ -124,14 +125,21 @@ impl DominantMotion {
             }
             radius = (radius * 0.5).max(params.inlier_radius);
         }
-        let inliers = nodes
+        let (inliers, sum_sq) = nodes
             .iter()
-            .filter(|&(u, v, flow)| model.residual_sq(u, v, flow) < params.inlier_radius_sq())
-            .count();
+            .map(|(u, v, flow)| model.residual_sq(u, v, flow))
+            .filter(|&r2| r2 < params.inlier_radius_sq())
+            .fold((0usize, 0.0f32), |(n, sum), r2| (n + 1, sum + r2));
+        let spread = if inliers > 0 {
+            sqrt(sum_sq / inliers as f32)
+        } else {
+            0.0
+        };
         Ok(DominantFit {
             motion: model.in_pixels(&nodes.frame),
             measured,
             inliers,
+            spread,
         })
     }
 }
@@ -196,6 +204,22 @@ pub struct DominantFit {
     pub measured: usize,
     /// Measured nodes within [`FitParams::inlier_radius`] of the motion.
     pub inliers: usize,
+    /// Root-mean-square distance of the inliers' flow from the motion, px: how precisely the
+    /// static scene was measured.
+    pub spread: f32,
+}
+
+/// Square root by Newton's method from the float's halved exponent: `core` has no `sqrt`, and
+/// five steps reach `f32` precision for the spreads used here.
+fn sqrt(x: f32) -> f32 {
+    if x.is_nan() || x <= 0.0 {
+        return 0.0;
+    }
+    let mut r = f32::from_bits((x.to_bits() >> 1) + 0x1fc0_0000);
+    for _ in 0..5 {
+        r = 0.5 * (r + x / r);
+    }
+    r
 }
 
 /// The map from pixels to the fit's centred, scaled coordinates.
@@ -492,6 +516,26 @@ mod tests {
             DominantMotion::fit(&layout, &row, &bad),
             Err(DenseError::BadThreshold)
         );
+    }
+
+    #[test]
+    fn spread_is_the_rms_of_the_inliers() {
+        // Alternate nodes 0.3 px left and right of a pan; one far outlier.
+        let (layout, mut nodes) =
+            nodes_with(|x, _| (1.0 + if x % 16.0 < 8.0 { 0.3 } else { -0.3 }, 0.0));
+        nodes[7] = GridNode::tracked(Point::from_f32(9.0, 9.0));
+        let fit = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap();
+        assert_eq!(fit.inliers, 299);
+        assert!((fit.spread - 0.3).abs() < 1e-3, "{}", fit.spread);
+    }
+
+    #[test]
+    fn square_roots_are_accurate() {
+        for x in [1e-6f32, 0.09, 2.25, 1.0, 3.0, 1e6] {
+            let r = sqrt(x);
+            assert!((r * r - x).abs() <= 1e-5 * x, "{x}: {r}");
+        }
+        assert_eq!((sqrt(0.0), sqrt(-1.0), sqrt(f32::NAN)), (0.0, 0.0, 0.0));
     }
 
     #[test]

@@ -346,14 +346,15 @@ impl GridNode {
 /// ```
 /// use kestrel::dense::grid::DenseParams;
 /// let p = DenseParams::default();
-/// assert_eq!((p.cell, p.lk.window, p.fill_passes), (8, 9, 2));
+/// assert_eq!((p.cell, p.lk.window, p.lk.min_eigen_threshold, p.fill_passes), (8, 9, 3e-3, 2));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DenseParams {
     /// Grid spacing, px (at least 1, at most the frame's smaller side).
     pub cell: usize,
-    /// The LK tracker's parameters; dense mode defaults to a 9 x 9 window.
+    /// The LK tracker's parameters; dense mode defaults to a 9 x 9 window and a minimum
+    /// eigenvalue of [`DenseParams::DEFAULT_MIN_EIGEN`].
     pub lk: LkParams,
     /// Residual gate, grey levels: a converged node whose mean absolute residual (after the
     /// gain and bias correction) is above it is [`NodeStatus::Residual`].
@@ -365,6 +366,9 @@ pub struct DenseParams {
 impl DenseParams {
     /// The default LK window in dense mode, px.
     pub const DEFAULT_WINDOW: usize = 9;
+    /// The default LK minimum eigenvalue in dense mode, in OpenCV's scale (see
+    /// [`LkParams::min_eigen_threshold`]).
+    pub const DEFAULT_MIN_EIGEN: f32 = 3e-3;
 }
 
 impl Default for DenseParams {
@@ -373,6 +377,7 @@ impl Default for DenseParams {
             cell: 8,
             lk: LkParams {
                 window: Self::DEFAULT_WINDOW,
+                min_eigen_threshold: Self::DEFAULT_MIN_EIGEN,
                 ..LkParams::default()
             },
             max_residual: 12.0,

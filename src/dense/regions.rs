@@ -3,7 +3,11 @@
 //! Regions are 8-connected (a small object moving diagonally across a coarse grid often touches
 //! its next node only at a corner). Each is found by a flood fill whose stack is a caller-owned
 //! slice of one `u32` per node: a node is pushed at most once, since it leaves the `unvisited`
-//! set as it is pushed. A region's box covers its nodes' cells, clipped to the frame.
+//! set as it is pushed.
+//!
+//! A region's box is its nodes' cells, clipped to the frame and inset on every side: a node
+//! whose LK window reaches into a moving object picks up the object's motion, so the cells of a
+//! region overhang the object by about half a window.
 
 use super::grid::{GridLayout, GridNode};
 use super::mask::{contains, set, words_for};
@@ -95,15 +99,42 @@ pub struct RegionCount {
     pub boxes: usize,
 }
 
-/// Finds the 8-connected regions of `mask` with at least `min_nodes` nodes and writes their
-/// boxes into `boxes`, largest first (equal sizes in the raster order of their first node).
-/// When there are more regions than boxes, the largest are kept.
+/// Which regions give boxes, and how boxes are drawn around them.
+///
+/// ```
+/// use kestrel::dense::regions::BoxRules;
+/// assert_eq!(BoxRules::default(), BoxRules { min_nodes: 3, inset: 4 });
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoxRules {
+    /// Area floor: regions with fewer nodes give no box. Three by default: with 9 px windows
+    /// on an 8 px grid, an object of 10 px already moves a 2 x 2 block of nodes, while one or
+    /// two nodes alone are more often wrong LK estimates than objects.
+    pub min_nodes: u32,
+    /// Pixels removed from each side of a region's cells, keeping at least half a cell; about
+    /// half the LK window (4 for the dense default of 9 px).
+    pub inset: usize,
+}
+
+impl Default for BoxRules {
+    fn default() -> Self {
+        Self {
+            min_nodes: 3,
+            inset: 4,
+        }
+    }
+}
+
+/// Finds the 8-connected regions of `mask` with at least `rules.min_nodes` nodes and writes
+/// their boxes into `boxes`, largest first (equal sizes in the raster order of their first
+/// node). When there are more regions than boxes, the largest are kept.
 ///
 /// `unvisited` is a mask's worth of scratch, `stack` one `u32` per node ([`GridLayout::len`]).
 ///
 /// ```
 /// use kestrel::dense::grid::{GridLayout, GridNode};
-/// use kestrel::dense::regions::{find_boxes, MotionBox};
+/// use kestrel::dense::regions::{find_boxes, BoxRules, MotionBox};
 /// use kestrel::Point;
 ///
 /// // A 4 x 4 grid of 8 px cells: an L of three nodes, and one lone node.
@@ -111,9 +142,10 @@ pub struct RegionCount {
 /// let nodes = [GridNode::tracked(Point::from_f32(1.0, 0.0)); 16];
 /// let mask = [0b1000_0000_0001_0011];
 /// let mut boxes = [MotionBox::default(); 4];
-/// let found = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 16], 2, &mut boxes).unwrap();
+/// let rules = BoxRules { min_nodes: 2, inset: 2 };
+/// let found = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 16], &rules, &mut boxes).unwrap();
 /// assert_eq!((found.regions, found.boxes), (1, 1));
-/// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h, boxes[0].nodes), (0, 0, 16, 16, 3));
+/// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h, boxes[0].nodes), (2, 2, 12, 12, 3));
 /// ```
 pub fn find_boxes(
     layout: &GridLayout,
@@ -121,7 +153,7 @@ pub fn find_boxes(
     mask: &[u32],
     unvisited: &mut [u32],
     stack: &mut [u32],
-    min_nodes: u32,
+    rules: &BoxRules,
     boxes: &mut [MotionBox],
 ) -> Result<RegionCount, DenseError> {
     let words = words_for(layout.len());
@@ -140,9 +172,10 @@ pub fn find_boxes(
             continue;
         }
         let region = flood(layout, nodes, unvisited, stack, seed);
-        if region.nodes >= min_nodes {
+        if region.nodes >= rules.min_nodes {
             found.regions += 1;
-            found.boxes = keep_largest(boxes, found.boxes, region.to_box(layout));
+            let found_box = region.to_box(layout, rules.inset);
+            found.boxes = keep_largest(boxes, found.boxes, found_box);
         }
     }
     Ok(found)
@@ -179,8 +212,11 @@ impl Region {
         }
     }
 
-    fn to_box(&self, layout: &GridLayout) -> MotionBox {
+    fn to_box(&self, layout: &GridLayout, inset: usize) -> MotionBox {
         let (x, y, w, h) = layout.span_rect(self.cols.0, self.rows.0, self.cols.1, self.rows.1);
+        let keep = (layout.cell() / 2).max(1);
+        let (x, w) = inset_span((x, w), layout.width(), inset, keep);
+        let (y, h) = inset_span((y, h), layout.height(), inset, keep);
         // A mean of Q16 values is within their range.
         let mean = |sum: i64| Q16::from_bits((sum / self.flows.max(1)) as i32);
         MotionBox {
@@ -192,6 +228,23 @@ impl Region {
             mean_flow: Point::new(mean(self.flow_sum.0), mean(self.flow_sum.1)),
         }
     }
+}
+
+/// `start..start + len` with up to `inset` removed from each end that is not the frame's edge
+/// (`0` or `size`: nothing lies beyond it to overhang), keeping at least `keep`.
+fn inset_span(
+    (start, len): (usize, usize),
+    size: usize,
+    inset: usize,
+    keep: usize,
+) -> (usize, usize) {
+    let ends = usize::from(start > 0) + usize::from(start + len < size);
+    let cut = match ends {
+        0 => 0,
+        _ => inset.min(len.saturating_sub(keep) / ends),
+    };
+    let head = if start > 0 { cut } else { 0 };
+    (start + head, len - cut * ends)
 }
 
 /// Flood-fills the region of `seed` out of `unvisited`.
@@ -299,13 +352,17 @@ mod tests {
         nodes[5] = GridNode::tracked(Point::from_f32(3.0, 0.0));
         let mask = [1 | 1 << 5 | 1 << 11];
         let mut boxes = [MotionBox::default(); 2];
+        let rules = BoxRules {
+            min_nodes: 1,
+            inset: 0,
+        };
         let found = find_boxes(
             &layout,
             &nodes,
             &mask,
             &mut [0],
             &mut [0; 12],
-            1,
+            &rules,
             &mut boxes,
         );
         assert_eq!(
@@ -335,7 +392,7 @@ mod tests {
                 mask,
                 &mut unvisited[..unvisited_len],
                 &mut stack[..stack_len],
-                1,
+                &BoxRules::default(),
                 &mut boxes[..boxes_len],
             )
         };
@@ -356,6 +413,16 @@ mod tests {
                 boxes: 0
             })
         );
+    }
+
+    #[test]
+    fn insets_keep_half_a_cell_and_the_frame_edges() {
+        assert_eq!(inset_span((8, 24), 64, 4, 4), (12, 16));
+        assert_eq!(inset_span((8, 8), 64, 4, 4), (10, 4));
+        assert_eq!(inset_span((0, 16), 64, 4, 4), (0, 12));
+        assert_eq!(inset_span((48, 16), 64, 4, 4), (52, 12));
+        assert_eq!(inset_span((0, 64), 64, 4, 4), (0, 64));
+        assert_eq!(inset_span((60, 3), 64, 4, 4), (60, 3));
     }
 
     #[test]

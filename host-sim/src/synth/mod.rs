@@ -17,6 +17,7 @@
 //! ```
 
 mod homography;
+pub mod objects;
 mod points;
 mod render;
 mod rng;

@@ -215,8 +215,8 @@ impl Region {
     fn to_box(&self, layout: &GridLayout, inset: usize) -> MotionBox {
         let (x, y, w, h) = layout.span_rect(self.cols.0, self.rows.0, self.cols.1, self.rows.1);
         let keep = (layout.cell() / 2).max(1);
-        let (x, w) = inset_span((x, w), layout.width(), inset, keep);
-        let (y, h) = inset_span((y, h), layout.height(), inset, keep);
+        let (x, w) = inset_span(x, w, inset, keep);
+        let (y, h) = inset_span(y, h, inset, keep);
         // A mean of Q16 values is within their range.
         let mean = |sum: i64| Q16::from_bits((sum / self.flows.max(1)) as i32);
         MotionBox {
@@ -230,21 +230,14 @@ impl Region {
     }
 }
 
-/// `start..start + len` with up to `inset` removed from each end that is not the frame's edge
-/// (`0` or `size`: nothing lies beyond it to overhang), keeping at least `keep`.
-fn inset_span(
-    (start, len): (usize, usize),
-    size: usize,
-    inset: usize,
-    keep: usize,
-) -> (usize, usize) {
-    let ends = usize::from(start > 0) + usize::from(start + len < size);
-    let cut = match ends {
-        0 => 0,
-        _ => inset.min(len.saturating_sub(keep) / ends),
-    };
-    let head = if start > 0 { cut } else { 0 };
-    (start + head, len - cut * ends)
+/// `start..start + len` with up to `inset` removed from each end, keeping at least `keep`.
+///
+/// The frame's edges are inset too: an object cut by the edge then loses up to `inset` px of
+/// its box, but one that merely comes near the edge (and so moves the edge node) does not gain
+/// a whole cell.
+fn inset_span(start: usize, len: usize, inset: usize, keep: usize) -> (usize, usize) {
+    let cut = inset.min(len.saturating_sub(keep) / 2);
+    (start + cut, len - 2 * cut)
 }
 
 /// Flood-fills the region of `seed` out of `unvisited`.
@@ -416,13 +409,11 @@ mod tests {
     }
 
     #[test]
-    fn insets_keep_half_a_cell_and_the_frame_edges() {
-        assert_eq!(inset_span((8, 24), 64, 4, 4), (12, 16));
-        assert_eq!(inset_span((8, 8), 64, 4, 4), (10, 4));
-        assert_eq!(inset_span((0, 16), 64, 4, 4), (0, 12));
-        assert_eq!(inset_span((48, 16), 64, 4, 4), (52, 12));
-        assert_eq!(inset_span((0, 64), 64, 4, 4), (0, 64));
-        assert_eq!(inset_span((60, 3), 64, 4, 4), (60, 3));
+    fn insets_keep_half_a_cell() {
+        assert_eq!(inset_span(8, 24, 4, 4), (12, 16));
+        assert_eq!(inset_span(0, 16, 4, 4), (4, 8));
+        assert_eq!(inset_span(8, 8, 4, 4), (10, 4));
+        assert_eq!(inset_span(60, 3, 4, 4), (60, 3));
     }
 
     #[test]

@@ -2,7 +2,9 @@
 //! contract (one line on stderr, exit status 1 for bad input, 2 for a bad command line).
 
 pub mod args;
+pub mod dense;
 pub mod flow;
+pub mod motion;
 pub mod synth;
 
 use std::ffi::OsString;
@@ -27,6 +29,8 @@ Usage: host-sim <COMMAND> [options]
 
 Commands:
   flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  dense     flow at every node of a grid, as CSV, a Middlebury .flo field and picture
+  motion    boxes around what moves in a sequence, the camera's own motion removed
   synth     write seeded synthetic frame pairs with exact ground truth
 
 Options:
@@ -54,6 +58,8 @@ enum Request {
     /// Print the version to stdout.
     Version,
     Flow(commands::flow::FlowOptions),
+    Dense(commands::dense::DenseOptions),
+    Motion(commands::motion::MotionOptions),
     Synth(commands::synth::SynthOptions),
 }
 
@@ -88,6 +94,14 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Flow(options),
             None => Request::Print(flow::USAGE),
         }),
+        "dense" => Ok(match dense::parse_options(rest)? {
+            Some(options) => Request::Dense(options),
+            None => Request::Print(dense::USAGE),
+        }),
+        "motion" => Ok(match motion::parse_options(rest)? {
+            Some(options) => Request::Motion(options),
+            None => Request::Print(motion::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
@@ -114,6 +128,8 @@ fn execute(request: Request) -> Result<(), CommandError> {
             Ok(())
         }
         Request::Flow(options) => commands::flow::run(&options),
+        Request::Dense(options) => commands::dense::run(&options),
+        Request::Motion(options) => commands::motion::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
     }
 }

@@ -17,6 +17,39 @@
 //!
 //! Nothing allocates: nodes, masks and boxes live in caller-owned slices sized by `const fn`s.
 //!
+//! # Memory
+//!
+//! With 8 px cells, a 9 px window and pyramids to level 3, flow and motion detection need,
+//! besides the two frames themselves (level 0 of each pyramid is the frame):
+//!
+//! | buffer | sized by | 160 x 120 | 320 x 240 |
+//! |---|---|---|---|
+//! | two pyramids, levels 1 to 3 | [`crate::pyramid::pyramid_storage_len`] | 12 600 B | 50 400 B |
+//! | nodes, 12 B each | [`grid::grid_len`] | 3 600 B | 14 400 B |
+//! | LK scratch | [`crate::lk::scratch_len`] | 1 422 B | 1 422 B |
+//! | mask | [`mask::mask_words`] | 40 B | 152 B |
+//! | motion scratch | [`motion::motion_scratch_len`] | 1 240 B | 4 952 B |
+//! | 16 boxes, 20 B each | | 320 B | 320 B |
+//! | total | | 19 222 B | 71 646 B |
+//!
+//! ```
+//! use core::mem::size_of;
+//! use kestrel::dense::{grid, mask, motion, regions};
+//! use kestrel::{lk, pyramid};
+//! const fn bytes(w: usize, h: usize) -> usize {
+//!     2 * pyramid::pyramid_storage_len(w, h, 3)
+//!         + grid::grid_len(w, h, 8) * size_of::<grid::GridNode>()
+//!         + lk::scratch_len(9) * size_of::<i16>()
+//!         + (mask::mask_words(w, h, 8) + motion::motion_scratch_len(w, h, 8)) * size_of::<u32>()
+//!         + 16 * size_of::<regions::MotionBox>()
+//! }
+//! assert_eq!((size_of::<grid::GridNode>(), size_of::<regions::MotionBox>()), (12, 20));
+//! assert_eq!((bytes(160, 120), bytes(320, 240)), (19_222, 71_646));
+//! ```
+//!
+//! On the stack, this module's largest buffer is the 64 B of a fill median (LK's use comes on
+//! top).
+//!
 //! ```
 //! use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode};
 //! use kestrel::frame::ImageView;

@@ -8,7 +8,7 @@
 //! `k` reaches exactly `k` nodes away from the measurements. The median, unlike the mean, does
 //! not blend an object's flow with the background's at its border.
 
-use super::grid::{GridLayout, GridNode, NodeStatus};
+use super::grid::{GridLayout, GridNode, NodeStatus, NEIGHBOURS};
 use crate::q16::{Point, Q16};
 
 /// Known neighbours a node needs to be filled: one alone would copy a possibly wrong value.
@@ -71,16 +71,11 @@ fn neighbour_median(
     index: usize,
     pass: u8,
 ) -> Option<Point> {
-    let (col, row) = layout.node(index);
     let mut xs = [0i32; 8];
     let mut ys = [0i32; 8];
     let mut count = 0;
-    for (dc, dr) in NEIGHBOURS {
-        let neighbour = col
-            .checked_add_signed(dc)
-            .zip(row.checked_add_signed(dr))
-            .and_then(|(c, r)| layout.index(c, r))
-            .and_then(|i| nodes.get(i));
+    for offset in NEIGHBOURS {
+        let neighbour = layout.neighbour(index, offset).and_then(|i| nodes.get(i));
         let Some(n) = neighbour else { continue };
         let known = n.status == NodeStatus::Tracked
             || (n.status == NodeStatus::Filled && n.fill_pass < pass);
@@ -97,18 +92,6 @@ fn neighbour_median(
     let y = median(ys.get_mut(..count)?);
     Some(Point::new(Q16::from_bits(x), Q16::from_bits(y)))
 }
-
-/// The eight neighbours of a node, as (column, row) offsets.
-const NEIGHBOURS: [(isize, isize); 8] = [
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-    (-1, 0),
-    (1, 0),
-    (-1, 1),
-    (0, 1),
-    (1, 1),
-];
 
 /// The median of at most eight values (the mean of the middle two for an even count); sorts
 /// `values` in place.

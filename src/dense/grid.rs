@@ -208,6 +208,20 @@ impl GridLayout {
         (index % cols, index / cols)
     }
 
+    /// The index of the node `offset` (columns, rows) away from node `index`; `None` off the
+    /// grid.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// let layout = GridLayout::new(64, 64, 16).unwrap();
+    /// assert_eq!(layout.neighbour(5, (1, 1)), Some(10));
+    /// assert_eq!(layout.neighbour(4, (-1, 0)), None);
+    /// ```
+    pub fn neighbour(&self, index: usize, (dc, dr): (isize, isize)) -> Option<usize> {
+        let (col, row) = self.node(index);
+        self.index(col.checked_add_signed(dc)?, row.checked_add_signed(dr)?)
+    }
+
     /// The pixels of node (`col`, `row`)'s cell, clipped to the frame: `(x, y, width, height)`.
     ///
     /// ```
@@ -216,34 +230,38 @@ impl GridLayout {
     /// assert_eq!(layout.cell_rect(0, 0), (0, 0, 8, 8));
     /// assert_eq!(layout.cell_rect(11, 5), (88, 40, 8, 8));
     /// ```
-    pub const fn cell_rect(&self, col: usize, row: usize) -> (usize, usize, usize, usize) {
+    pub fn cell_rect(&self, col: usize, row: usize) -> (usize, usize, usize, usize) {
         self.span_rect(col, row, col, row)
     }
 
     /// The pixels covered by the cells of columns `c0..=c1` and rows `r0..=r1`, clipped to the
     /// frame: `(x, y, width, height)`.
-    pub(crate) const fn span_rect(
+    pub(crate) fn span_rect(
         &self,
         c0: usize,
         r0: usize,
         c1: usize,
         r1: usize,
     ) -> (usize, usize, usize, usize) {
-        let x = min(c0 * self.cell, self.width);
-        let y = min(r0 * self.cell, self.height);
-        let right = min((c1 + 1) * self.cell, self.width);
-        let bottom = min((r1 + 1) * self.cell, self.height);
+        let x = (c0 * self.cell).min(self.width);
+        let y = (r0 * self.cell).min(self.height);
+        let right = ((c1 + 1) * self.cell).min(self.width);
+        let bottom = ((r1 + 1) * self.cell).min(self.height);
         (x, y, right.saturating_sub(x), bottom.saturating_sub(y))
     }
 }
 
-const fn min(a: usize, b: usize) -> usize {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
+/// The eight neighbours of a node, as (column, row) offsets.
+pub(crate) const NEIGHBOURS: [(isize, isize); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
 
 /// What is known about one node's flow.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -199,12 +199,9 @@ fn neighbour(
     layout: &GridLayout,
     mask: &[u32],
     index: usize,
-    (dc, dr): (isize, isize),
+    offset: (isize, isize),
 ) -> Option<bool> {
-    let (col, row) = layout.node(index);
-    let c = col.checked_add_signed(dc)?;
-    let r = row.checked_add_signed(dr)?;
-    layout.index(c, r).map(|i| contains(mask, i))
+    layout.neighbour(index, offset).map(|i| contains(mask, i))
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 //! whose LK window reaches into a moving object picks up the object's motion, so the cells of a
 //! region overhang the object by about half a window.
 
-use super::grid::{GridLayout, GridNode};
+use super::grid::{GridLayout, GridNode, NEIGHBOURS};
 use super::mask::{contains, set, words_for};
 use super::DenseError;
 use crate::q16::{Point, Q16};
@@ -112,8 +112,9 @@ pub struct BoxRules {
     /// on an 8 px grid, an object of 10 px already moves a 2 x 2 block of nodes, while one or
     /// two nodes alone are more often wrong LK estimates than objects.
     pub min_nodes: u32,
-    /// Pixels removed from each side of a region's cells, keeping at least half a cell; about
-    /// half the LK window (4 for the dense default of 9 px).
+    /// Pixels removed from each side of a region's cells, keeping at least one cell per side;
+    /// about half the LK window (4 for the dense default of 9 px). A region one node wide can
+    /// hold an object from a few pixels to a cell and a window wide, so it keeps its cell.
     pub inset: usize,
 }
 
@@ -214,9 +215,8 @@ impl Region {
 
     fn to_box(&self, layout: &GridLayout, inset: usize) -> MotionBox {
         let (x, y, w, h) = layout.span_rect(self.cols.0, self.rows.0, self.cols.1, self.rows.1);
-        let keep = (layout.cell() / 2).max(1);
-        let (x, w) = inset_span(x, w, inset, keep);
-        let (y, h) = inset_span(y, h, inset, keep);
+        let (x, w) = inset_span(x, w, inset, layout.cell());
+        let (y, h) = inset_span(y, h, inset, layout.cell());
         // A mean of Q16 values is within their range.
         let mean = |sum: i64| Q16::from_bits((sum / self.flows.max(1)) as i32);
         MotionBox {
@@ -259,11 +259,8 @@ fn flood(
         };
         let (col, row) = layout.node(index);
         region.add(col, row, nodes.get(index));
-        for (dc, dr) in NEIGHBOURS {
-            let next = col
-                .checked_add_signed(dc)
-                .zip(row.checked_add_signed(dr))
-                .and_then(|(c, r)| layout.index(c, r));
+        for offset in NEIGHBOURS {
+            let next = layout.neighbour(index, offset);
             if let Some(next) = next.filter(|&n| contains(unvisited, n)) {
                 push(unvisited, stack, &mut top, next);
             }
@@ -282,18 +279,6 @@ fn push(unvisited: &mut [u32], stack: &mut [u32], top: &mut usize, index: usize)
         *top += 1;
     }
 }
-
-/// The eight neighbours of a node, as (column, row) offsets.
-const NEIGHBOURS: [(isize, isize); 8] = [
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-    (-1, 0),
-    (1, 0),
-    (-1, 1),
-    (0, 1),
-    (1, 1),
-];
 
 /// Inserts `new` into the first `len` boxes, kept sorted largest first (after the boxes of the
 /// same size already there); drops the smallest when full. Returns the new length.
@@ -366,6 +351,25 @@ mod tests {
             })
         );
         assert_eq!((boxes[0].w, boxes[0].h, boxes[0].nodes), (16, 16, 2));
+        // With an inset, the one-node region keeps its whole cell.
+        let rules = BoxRules {
+            min_nodes: 1,
+            inset: 4,
+        };
+        find_boxes(
+            &layout,
+            &nodes,
+            &mask,
+            &mut [0],
+            &mut [0; 12],
+            &rules,
+            &mut boxes,
+        )
+        .unwrap();
+        assert_eq!(
+            (boxes[0].x, boxes[0].w, boxes[1].x, boxes[1].w),
+            (4, 8, 24, 8)
+        );
         assert_eq!(boxes[0].mean_flow.to_f32(), (2.0, 1.0));
         // The lone node has no flow: its mean is zero.
         assert_eq!((boxes[1].x, boxes[1].y, boxes[1].nodes), (24, 16, 1));
@@ -409,7 +413,7 @@ mod tests {
     }
 
     #[test]
-    fn insets_keep_half_a_cell() {
+    fn insets_keep_the_minimum() {
         assert_eq!(inset_span(8, 24, 4, 4), (12, 16));
         assert_eq!(inset_span(0, 16, 4, 4), (4, 8));
         assert_eq!(inset_span(8, 8, 4, 4), (10, 4));

@@ -15,7 +15,6 @@ use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::{encode_rgb_png, read_grey};
 use crate::io::json::JsonObject;
 use crate::io::{AtomicFile, InputError, OutputError};
-use crate::Frame;
 
 /// Columns of grid.csv: the contract's five, then the node's status by name.
 pub const COLUMNS: [&str; 6] = ["x", "y", "dx", "dy", "ok", "status"];
@@ -76,13 +75,11 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     let prev = read_grey(&options.prev)?;
     let next = read_grey(&options.next)?;
     check_same_size(&options.prev, &options.next, &prev, &next)?;
-    let mut runner = DenseRunner::new(options.params, prev.width, prev.height)
-        .map_err(|e| refused(options, &prev, e))?;
+    let size = (prev.width, prev.height);
+    let refused = |e| refused(e, &options.params, &options.prev, size);
+    let mut runner = DenseRunner::new(options.params, size.0, size.1).map_err(refused)?;
     let ((), seconds) = time_core(options.repeat, || {
-        runner
-            .compute(&prev, &next)
-            .map(|_| ())
-            .map_err(|e| refused(options, &prev, e))
+        runner.compute(&prev, &next).map(|_| ()).map_err(refused)
     })?;
     let (layout, nodes) = (runner.layout(), runner.nodes());
 
@@ -113,30 +110,31 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     Ok(())
 }
 
-/// The error for inputs the library refused, naming the flag or file at fault.
-fn refused(options: &DenseOptions, frame: &Frame, error: RunError) -> CommandError {
-    let size = format!("{}x{}", frame.width, frame.height);
-    let cell = options.params.cell;
+/// The error for frames of `input` (`width` x `height`) the library refused, naming the flag or
+/// the input at fault.
+pub(crate) fn refused(
+    error: RunError,
+    params: &DenseParams,
+    input: &Path,
+    (width, height): (usize, usize),
+) -> CommandError {
     match error {
         RunError::Dense(DenseError::CellTooLarge) => CommandError::Processing(format!(
-            "--cell: {cell} px is larger than the {size} frames"
+            "--cell: {} px is larger than the {width}x{height} frames",
+            params.cell
         )),
-        RunError::Dense(DenseError::FrameTooSmall) => {
-            CommandError::Input(too_small(&options.prev, &size, &options.params))
-        }
-        other => CommandError::Processing(format!("cannot compute the grid flow: {other}")),
+        RunError::Dense(DenseError::FrameTooSmall) => CommandError::Input(InputError::file(
+            input,
+            format!(
+                "frame is {width}x{height}, too small for {} pyramid levels with a {} px window (use fewer --levels)",
+                params.lk.max_level, params.lk.window
+            ),
+        )),
+        other => CommandError::Processing(format!(
+            "{}: the library refused the frames: {other}",
+            input.display()
+        )),
     }
-}
-
-/// The message for frames too small for the pyramid and window.
-pub(crate) fn too_small(path: &Path, size: &str, params: &DenseParams) -> InputError {
-    InputError::file(
-        path,
-        format!(
-            "frame is {size}, too small for {} pyramid levels with a {} px window (use fewer --levels)",
-            params.lk.max_level, params.lk.window
-        ),
-    )
 }
 
 /// The name of a status in grid.csv's `status` column.

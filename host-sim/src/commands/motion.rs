@@ -11,14 +11,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use kestrel::dense::regions::MotionBox;
-use kestrel::dense::DenseError;
 
+use super::dense::refused;
 use super::{median, CommandError};
 use crate::dense::picture::motion_overlay;
-use crate::dense::{MotionFrame, MotionRunner, MotionSettings, RunError};
+use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
 use crate::io::json::JsonObject;
-use crate::io::{describe_io_error, AtomicFile, FrameSource, OutputError, Place};
+use crate::io::{describe_io_error, AtomicFile, FrameSource, OutputError};
 use crate::Frame;
 
 /// Columns of boxes.csv: the contract's five, then the region's size in grid nodes.
@@ -100,19 +100,17 @@ fn detect(
     for (index, frame) in source.enumerate() {
         let frame = frame?;
         let (width, height) = (frame.width, frame.height);
+        let refused = |e| refused(e, &options.settings.dense, Path::new(name), (width, height));
         let runner = match &mut runner {
             Some(runner) => runner,
-            None => runner.insert(
-                MotionRunner::new(options.settings, width, height)
-                    .map_err(|e| refused(options, name, width, height, e))?,
-            ),
+            None => {
+                runner.insert(MotionRunner::new(options.settings, width, height).map_err(refused)?)
+            }
         };
         // The pictures need the later frame after the runner took it.
         let later = options.viz.as_ref().map(|_| frame.clone());
         let start = Instant::now();
-        let found = runner
-            .push(frame)
-            .map_err(|e| refused(options, name, width, height, e))?;
+        let found = runner.push(frame).map_err(refused)?;
         pass.seconds.push(start.elapsed().as_secs_f64());
         pass.frames += 1;
         pass.progress.show(index);
@@ -127,28 +125,6 @@ fn detect(
         }
     }
     Ok(())
-}
-
-/// The error for frames the library refused, naming the flag or the frame size.
-fn refused(
-    options: &MotionOptions,
-    name: &str,
-    width: usize,
-    height: usize,
-    error: RunError,
-) -> CommandError {
-    let size = format!("{width}x{height}");
-    match error {
-        RunError::Dense(DenseError::CellTooLarge) => CommandError::Processing(format!(
-            "--cell: {} px is larger than the {size} frames",
-            options.settings.dense.cell
-        )),
-        RunError::Dense(DenseError::FrameTooSmall) => CommandError::Input(
-            super::dense::too_small(Path::new(name), &size, &options.settings.dense)
-                .at(Place::Frame(0)),
-        ),
-        other => CommandError::Processing(format!("{name}: cannot detect motion: {other}")),
-    }
 }
 
 /// One row per box, `frame` being the later frame of the pair.

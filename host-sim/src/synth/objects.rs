@@ -26,9 +26,10 @@
 
 use super::homography::Homography;
 use super::render::{area_sample, Exposure, Lighting};
-use super::rng::{lattice, SplitMix64};
+use super::rng::SplitMix64;
 use super::scene::Scene;
 use super::sequence::CameraPath;
+use super::texture::value_noise;
 use crate::Frame;
 
 /// An axis-aligned box in pixels: `x..x + w` by `y..y + h` (pixel edges, so a box from 0 to
@@ -159,7 +160,7 @@ impl MovingObject {
             .enumerate()
             .map(|(i, &(wavelength, amplitude))| {
                 let seed = self.seed.wrapping_add(i as u64);
-                amplitude * (2.0 * smooth_noise(seed, u / wavelength, v / wavelength) - 1.0)
+                amplitude * (2.0 * value_noise(seed, u / wavelength, v / wavelength) - 1.0)
             })
             .sum();
         self.base + detail
@@ -178,18 +179,6 @@ fn bounce(p: f64, limit: f64) -> f64 {
     } else {
         period - t
     }
-}
-
-/// Value noise in `[0, 1]` with a smoothstep blend between lattice values.
-fn smooth_noise(seed: u64, x: f64, y: f64) -> f64 {
-    let (i, j) = (x.floor(), y.floor());
-    let fade = |t: f64| t * t * (3.0 - 2.0 * t);
-    let (tx, ty) = (fade(x - i), fade(y - j));
-    let (i, j) = (i as i64, j as i64);
-    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-    let top = lerp(lattice(seed, i, j), lattice(seed, i + 1, j), tx);
-    let bottom = lerp(lattice(seed, i, j + 1), lattice(seed, i + 1, j + 1), tx);
-    lerp(top, bottom, ty)
 }
 
 /// How [`scatter_objects`] draws objects.

@@ -12,10 +12,8 @@
 //! including a box on an object that stands still.
 
 use host_sim::dense::{MotionRunner, MotionSettings};
-use host_sim::synth::objects::{scatter_objects, BoxPx, ObjectSequence, ObjectSpec};
-use host_sim::synth::{CameraPath, Scene, SceneSpec};
+use host_sim::synth::objects::{BoxPx, ObjectSequence, Scenario};
 
-const NOISE: f64 = 1.5;
 const FRAMES: usize = 30;
 const MIN_IOU: f64 = 0.3;
 
@@ -170,78 +168,37 @@ impl Totals {
     }
 }
 
-/// The whole frame as the area objects move in.
-fn view(width: usize, height: usize, margin: f64) -> BoxPx {
-    BoxPx {
-        x: margin,
-        y: margin,
-        w: width as f64 - 2.0 * margin,
-        h: height as f64 - 2.0 * margin,
-    }
-}
-
-#[test]
-fn still_camera_finds_every_moving_object() {
-    let (w, h) = (160, 120);
-    // Four objects of 10 to 40 px moving 1 to 3 px per frame, one standing still, at least
-    // three grid cells apart.
-    let spec = ObjectSpec {
-        moving: 4,
-        still: 1,
-        sizes: (10.0, 40.0),
-        speeds: (1.0, 3.0),
-        gap: 24.0,
-    };
+/// Runs `scenario` at `width` x `height` for `seeds`, printing the figures of each seed and of
+/// all together.
+fn run_scenario(scenario: Scenario, width: usize, height: usize, seeds: u64) -> Totals {
+    let label = format!("{scenario:?} {width}x{height}");
     let mut all = Totals {
         worst_object: 1.0,
         ..Totals::default()
     };
-    for seed in 1..=4 {
-        let objects = scatter_objects(seed, &spec, view(w, h, 0.0), FRAMES);
-        let scene = Scene::new(SceneSpec::new(w, h, seed).with_noise(NOISE));
-        let still = CameraPath::still((w as f64 / 2.0, h as f64 / 2.0));
-        let sequence = ObjectSequence::new(scene, objects, still, FRAMES);
+    for seed in 1..=seeds {
+        let sequence = scenario.sequence(width, height, FRAMES, seed);
         let totals = Totals::of(&run(&sequence));
-        totals.report(&format!("still camera {w}x{h}, seed {seed}"));
+        totals.report(&format!("{label}, seed {seed}"));
         all.add(&totals);
     }
-    all.report(&format!("still camera {w}x{h}, all seeds"));
+    all.report(&format!("{label}, all seeds"));
+    all
+}
+
+#[test]
+fn still_camera_finds_every_moving_object() {
+    // Four objects of 10 to 40 px moving 1 to 3 px per frame, one standing still.
+    let all = run_scenario(Scenario::StillCamera, 160, 120, 4);
     assert!(all.worst_object >= 0.95, "an object was missed too often");
     assert!(all.false_share() <= 0.05, "too many false boxes");
 }
 
 #[test]
 fn moving_camera_finds_small_targets() {
-    let (w, h) = (320, 240);
     // Eight targets of 10 to 25 px moving 1.5 to 3 px per frame on the ground, which the
     // camera sees panning, rolling 0.4 degrees and zooming 0.6% per frame.
-    let spec = ObjectSpec {
-        moving: 8,
-        still: 0,
-        sizes: (10.0, 25.0),
-        speeds: (1.5, 3.0),
-        gap: 24.0,
-    };
-    let centre = (w as f64 / 2.0, h as f64 / 2.0);
-    let camera = CameraPath {
-        pan: (1.5, -0.8),
-        rotation: 0.4f64.to_radians(),
-        zoom: 1.006,
-        centre,
-    };
-    let mut all = Totals {
-        worst_object: 1.0,
-        ..Totals::default()
-    };
-    for seed in 1..=3 {
-        let objects = scatter_objects(seed, &spec, view(w, h, 24.0), FRAMES);
-        let scene = Scene::new(SceneSpec::new(w, h, seed).with_noise(NOISE));
-        let sequence = ObjectSequence::new(scene, objects, camera, FRAMES);
-        let totals = Totals::of(&run(&sequence));
-        totals.report(&format!("moving camera {w}x{h}, seed {seed}"));
-        all.add(&totals);
-    }
-    all.report(&format!("moving camera {w}x{h}, all seeds"));
+    let all = run_scenario(Scenario::MovingCamera, 320, 240, 3);
     assert!(all.recall() >= 0.9, "recall");
     assert!(all.precision() >= 0.8, "precision");
 }

@@ -6,6 +6,7 @@ use kestrel::dense::grid::DenseParams;
 use kestrel::lk::LkParams;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
+use super::flow::{LEVELS, REPEAT, WINDOW};
 use crate::commands::dense::DenseOptions;
 
 /// The usage text of `host-sim dense --help`.
@@ -64,21 +65,9 @@ const FLAGS: &[Flag] = &[
 ];
 
 /// Cells up to the largest frame; the frame's own size is checked once it is read.
-pub(crate) const CELL: Rule<i64> = Rule {
+const CELL: Rule<i64> = Rule {
     accepts: |n| (1..=kestrel::frame::MAX_DIMENSION as i64).contains(&n),
     says: "must be between 1 and 4096",
-};
-pub(crate) const WINDOW: Rule<i64> = Rule {
-    accepts: |n| (3..=63).contains(&n) && n % 2 == 1,
-    says: "must be odd and between 3 and 63",
-};
-pub(crate) const LEVELS: Rule<i64> = Rule {
-    accepts: |n| (0..=7).contains(&n),
-    says: "must be between 0 and 7",
-};
-const REPEAT: Rule<i64> = Rule {
-    accepts: |n| n >= 1,
-    says: "must be at least 1",
 };
 
 /// Parses the words after `dense`; `None` means help was asked for.

@@ -7,7 +7,9 @@
 //! 3. [`detect`]: FAST-9 and Shi-Tomasi corners, spread over the frame by a grid.
 //! 4. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
 //! 5. [`track`]: the KLT track manager: detection, tracking, outlier rejection, refill, ids.
-//! 6. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
+//! 6. [`dense`]: LK on a regular grid, the camera's dominant motion, and the boxes of what
+//!    moves besides it.
+//! 7. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
 //!    and the autopilot's OPTICAL_FLOW_RAD output.
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
@@ -26,6 +28,7 @@
     )
 )]
 
+pub mod dense;
 pub mod detect;
 pub mod ego;
 pub mod frame;

@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod commands;
+pub mod dense;
 pub mod frame;
 pub mod io;
 pub mod reference;

@@ -63,11 +63,11 @@ const FLAGS: &[Flag] = &[
     Flag::value("--stats"),
 ];
 
-const WINDOW: Rule<i64> = Rule {
+pub(crate) const WINDOW: Rule<i64> = Rule {
     accepts: |n| (3..=63).contains(&n) && n % 2 == 1,
     says: "must be odd and between 3 and 63",
 };
-const LEVELS: Rule<i64> = Rule {
+pub(crate) const LEVELS: Rule<i64> = Rule {
     accepts: |n| (0..=7).contains(&n),
     says: "must be between 0 and 7",
 };
@@ -80,7 +80,7 @@ const EPSILON: Rule<f64> = Rule {
     accepts: |e| e.is_finite() && e >= 0.0,
     says: "must be a finite number >= 0",
 };
-const REPEAT: Rule<i64> = Rule {
+pub(crate) const REPEAT: Rule<i64> = Rule {
     accepts: |n| n >= 1,
     says: "must be at least 1",
 };

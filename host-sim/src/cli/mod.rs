@@ -3,7 +3,9 @@
 
 pub mod args;
 pub mod demo;
+pub mod dense;
 pub mod flow;
+pub mod motion;
 pub mod synth;
 pub mod track;
 
@@ -31,6 +33,8 @@ Commands:
   demo      run the library on a built-in sequence and write pictures (start here)
   flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
   track     follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)
+  dense     flow at every node of a grid, as CSV, a Middlebury .flo field and picture
+  motion    boxes around what moves in a sequence, the camera's own motion removed
   synth     write seeded synthetic frame pairs with exact ground truth
 
 Options:
@@ -60,6 +64,8 @@ enum Request {
     Demo(commands::demo::DemoOptions),
     Flow(commands::flow::FlowOptions),
     Track(commands::track::TrackOptions),
+    Dense(commands::dense::DenseOptions),
+    Motion(commands::motion::MotionOptions),
     Synth(commands::synth::SynthOptions),
 }
 
@@ -102,6 +108,14 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Track(options),
             None => Request::Print(track::USAGE),
         }),
+        "dense" => Ok(match dense::parse_options(rest)? {
+            Some(options) => Request::Dense(options),
+            None => Request::Print(dense::USAGE),
+        }),
+        "motion" => Ok(match motion::parse_options(rest)? {
+            Some(options) => Request::Motion(options),
+            None => Request::Print(motion::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
@@ -130,6 +144,8 @@ fn execute(request: Request) -> Result<(), CommandError> {
         Request::Demo(options) => commands::demo::run(&options),
         Request::Flow(options) => commands::flow::run(&options),
         Request::Track(options) => commands::track::run(&options),
+        Request::Dense(options) => commands::dense::run(&options),
+        Request::Motion(options) => commands::motion::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
     }
 }

@@ -2,17 +2,16 @@
 
 use std::io::{self, Write};
 use std::path::PathBuf;
-use std::time::Instant;
 
 use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack, TrackStatus};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::{Point, Q16};
 
-use super::CommandError;
+use super::{check_same_size, time_core, CommandError};
 use crate::io::csv::{read_points, CsvWriter, Fixed4};
 use crate::io::images::read_grey;
 use crate::io::json::JsonObject;
-use crate::io::{AtomicFile, InputError};
+use crate::io::AtomicFile;
 use crate::{reference, Frame};
 
 /// Columns of the output file: the contract's six, then the status by name.
@@ -74,7 +73,7 @@ pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
 
     let prev = read_grey(&options.prev)?;
     let next = read_grey(&options.next)?;
-    check_same_size(options, &prev, &next)?;
+    check_same_size(&options.prev, &options.next, &prev, &next)?;
     let points = read_points(&options.points)?;
 
     let (flows, median_seconds) = match options.engine {
@@ -123,21 +122,6 @@ pub fn status_name(status: TrackStatus) -> &'static str {
         TrackStatus::LowTexture => "low_texture",
         TrackStatus::NotConverged => "not_converged",
     }
-}
-
-fn check_same_size(options: &FlowOptions, prev: &Frame, next: &Frame) -> Result<(), InputError> {
-    if (prev.width, prev.height) == (next.width, next.height) {
-        return Ok(());
-    }
-    let problem = format!(
-        "is {}x{} but {} is {}x{}; the frames must have the same size",
-        prev.width,
-        prev.height,
-        options.next.display(),
-        next.width,
-        next.height
-    );
-    Err(InputError::file(&options.prev, problem))
 }
 
 /// The library's tracker with host-allocated storage for one frame size and point list.
@@ -221,38 +205,6 @@ fn reference_flow(track: &reference::RefTrack) -> PointFlow {
     }
 }
 
-/// Runs `core` `repeat` times (at least once) and returns its last result with the median
-/// duration in seconds.
-fn time_core<T>(
-    repeat: usize,
-    mut core: impl FnMut() -> Result<T, CommandError>,
-) -> Result<(T, f64), CommandError> {
-    let mut seconds = Vec::with_capacity(repeat.max(1));
-    let mut timed_run = |seconds: &mut Vec<f64>| {
-        let start = Instant::now();
-        let result = core()?;
-        seconds.push(start.elapsed().as_secs_f64());
-        Ok::<T, CommandError>(result)
-    };
-    let mut result = timed_run(&mut seconds)?;
-    for _ in 1..repeat {
-        // The previous result is dropped after the clock stopped.
-        result = timed_run(&mut seconds)?;
-    }
-    Ok((result, median(&mut seconds)))
-}
-
-/// The median of `values` (the mean of the two middle ones for an even count); 0 when empty.
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let middle = values.len() / 2;
-    match values.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => values[middle],
-        _ => (values[middle - 1] + values[middle]) / 2.0,
-    }
-}
-
 fn write_flow_csv(out: impl Write, points: &[(f32, f32)], flows: &[PointFlow]) -> io::Result<()> {
     let mut csv = CsvWriter::new(out, &COLUMNS)?;
     for (&(x, y), flow) in points.iter().zip(flows) {
@@ -273,25 +225,6 @@ fn write_flow_csv(out: impl Write, points: &[(f32, f32)], flows: &[PointFlow]) -
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn median_of_odd_and_even_counts() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert_eq!(median(&mut []), 0.0);
-    }
-
-    #[test]
-    fn core_runs_the_requested_number_of_times() {
-        let mut runs = 0;
-        let (last, seconds) = time_core(5, || {
-            runs += 1;
-            Ok(runs)
-        })
-        .unwrap();
-        assert_eq!((runs, last), (5, 5));
-        assert!(seconds >= 0.0);
-    }
 
     #[test]
     fn rows_follow_the_points_and_only_tracked_is_ok() {

@@ -64,6 +64,17 @@ pub fn encode_png(frame: &Frame) -> Result<Vec<u8>, String> {
     Ok(bytes)
 }
 
+/// Encodes `width` x `height` RGB pixels (three bytes each, row by row) as a colour PNG.
+pub fn encode_rgb_png(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>, String> {
+    let image = image::RgbImage::from_raw(width as u32, height as u32, rgb.to_vec())
+        .ok_or_else(|| "pixel buffer does not match its size".to_owned())?;
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut Cursor::new(&mut bytes), ImageFormat::Png)
+        .map_err(|e| format!("cannot encode PNG: {e}"))?;
+    Ok(bytes)
+}
+
 /// Writes `frame` to `path` as a grey PNG, atomically.
 pub fn write_png(path: &Path, frame: &Frame) -> Result<(), super::OutputError> {
     let bytes = encode_png(frame).map_err(|problem| super::OutputError::new(path, problem))?;
@@ -72,10 +83,9 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), super::OutputError> {
 
 /// Writes an RGB picture to `path` as a PNG, atomically.
 pub fn write_rgb_png(path: &Path, image: &image::RgbImage) -> Result<(), super::OutputError> {
-    let mut bytes = Vec::new();
-    image
-        .write_to(&mut Cursor::new(&mut bytes), ImageFormat::Png)
-        .map_err(|e| super::OutputError::new(path, format!("cannot encode PNG: {e}")))?;
+    let (width, height) = (image.width() as usize, image.height() as usize);
+    let bytes = encode_rgb_png(width, height, image.as_raw())
+        .map_err(|problem| super::OutputError::new(path, problem))?;
     super::atomic::write_atomically(path, &bytes)
 }
 

@@ -18,6 +18,7 @@
 
 mod homography;
 mod object;
+pub mod objects;
 mod points;
 mod render;
 mod rng;

@@ -171,7 +171,7 @@ impl Octave {
 
 /// Value noise in `[0, 1]`: random values on the integer lattice, blended with the quintic fade,
 /// whose first two derivatives vanish at lattice points (no visible grid).
-fn value_noise(seed: u64, x: f64, y: f64) -> f64 {
+pub(super) fn value_noise(seed: u64, x: f64, y: f64) -> f64 {
     let (i, j) = (floor(x), floor(y));
     let (tx, ty) = (fade(x - i as f64), fade(y - j as f64));
     let top = lerp(lattice(seed, i, j), lattice(seed, i + 1, j), tx);

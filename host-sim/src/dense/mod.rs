@@ -1,0 +1,236 @@
+//! The library's dense mode on host frames: grid flow for a pair, moving-object boxes along a
+//! sequence, and the pictures and files made from them.
+//!
+//! The runners own their buffers, allocated once for a frame size as firmware would place them
+//! in statics, so that each call is exactly the library's work on one frame.
+
+pub mod field;
+pub mod picture;
+pub mod wheel;
+
+use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
+use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
+use kestrel::dense::mask::mask_words;
+use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
+use kestrel::dense::regions::MotionBox;
+use kestrel::dense::DenseError;
+use kestrel::frame::ImageView;
+use kestrel::lk::scratch_len;
+use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
+
+use crate::Frame;
+
+/// Why the library refused to run on host frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunError {
+    /// Dense flow or motion detection refused its inputs.
+    Dense(DenseError),
+    /// A pyramid could not be built (a frame of another size than the runner's).
+    Pyramid(PyramidError),
+}
+
+impl std::fmt::Display for RunError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RunError::Dense(e) => e.fmt(f),
+            RunError::Pyramid(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+impl From<DenseError> for RunError {
+    fn from(error: DenseError) -> Self {
+        RunError::Dense(error)
+    }
+}
+
+impl From<PyramidError> for RunError {
+    fn from(error: PyramidError) -> Self {
+        RunError::Pyramid(error)
+    }
+}
+
+/// Grid flow between two frames of one size.
+#[derive(Debug, Clone)]
+pub struct DenseRunner {
+    dense: DenseFlow,
+    layout: GridLayout,
+    prev_storage: Vec<u8>,
+    next_storage: Vec<u8>,
+    scratch: Vec<i16>,
+    nodes: Vec<GridNode>,
+}
+
+impl DenseRunner {
+    /// A runner for `width` x `height` frames.
+    pub fn new(params: DenseParams, width: usize, height: usize) -> Result<Self, RunError> {
+        let dense = DenseFlow::new(params)?;
+        let layout = dense.layout(width, height)?;
+        let storage = pyramid_storage_len(width, height, params.lk.max_level);
+        Ok(Self {
+            dense,
+            layout,
+            prev_storage: vec![0; storage],
+            next_storage: vec![0; storage],
+            scratch: vec![0; scratch_len(params.lk.window)],
+            nodes: vec![GridNode::EMPTY; layout.len()],
+        })
+    }
+
+    /// The core: builds both pyramids and computes the grid flow from `prev` to `next`.
+    pub fn compute(&mut self, prev: &Frame, next: &Frame) -> Result<DenseSummary, RunError> {
+        let levels = self.dense.params().lk.max_level;
+        let prev = Pyramid::build(view(prev)?, levels, &mut self.prev_storage)?;
+        let next = Pyramid::build(view(next)?, levels, &mut self.next_storage)?;
+        Ok(self
+            .dense
+            .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?)
+    }
+
+    /// The grid.
+    pub fn layout(&self) -> &GridLayout {
+        &self.layout
+    }
+
+    /// The nodes of the last [`DenseRunner::compute`], row by row.
+    pub fn nodes(&self) -> &[GridNode] {
+        &self.nodes
+    }
+}
+
+fn view(frame: &Frame) -> Result<ImageView<'_>, RunError> {
+    frame
+        .view()
+        .map_err(|e| RunError::Pyramid(PyramidError::Image(e)))
+}
+
+/// Every setting of the motion pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotionSettings {
+    /// Grid flow.
+    pub dense: DenseParams,
+    /// The camera's dominant motion.
+    pub fit: FitParams,
+    /// Mask, morphology and regions.
+    pub motion: MotionParams,
+}
+
+/// The most boxes reported per frame.
+pub const MAX_BOXES: usize = 32;
+
+/// What the motion pipeline found between a frame and the one before it.
+#[derive(Debug, Clone)]
+pub struct MotionFrame {
+    /// The camera's motion between the two frames.
+    pub camera: DominantFit,
+    /// Mask and region counts.
+    pub summary: MotionSummary,
+    /// Boxes in the earlier frame, largest first.
+    pub boxes: Vec<MotionBox>,
+    /// The cleaned mask on the grid of the earlier frame.
+    pub mask: Vec<u32>,
+}
+
+impl MotionFrame {
+    /// The boxes moved by their flow into the later frame of a `width` x `height` sequence.
+    pub fn boxes_in_later_frame(&self, width: usize, height: usize) -> Vec<MotionBox> {
+        self.boxes
+            .iter()
+            .map(|b| b.in_next_frame(width, height))
+            .collect()
+    }
+}
+
+/// Moving-object detection along a sequence: each frame's pyramid is built once and kept as
+/// the next pair's previous one.
+#[derive(Debug, Clone)]
+pub struct MotionRunner {
+    settings: MotionSettings,
+    dense: DenseFlow,
+    detector: MotionDetector,
+    layout: GridLayout,
+    /// The previous frame, once one was pushed, and its pyramid levels in `prev_storage`.
+    prev: Option<Frame>,
+    prev_storage: Vec<u8>,
+    next_storage: Vec<u8>,
+    scratch: Vec<i16>,
+    nodes: Vec<GridNode>,
+    mask: Vec<u32>,
+    motion_scratch: Vec<u32>,
+    boxes: Vec<MotionBox>,
+}
+
+impl MotionRunner {
+    /// A runner for `width` x `height` frames.
+    pub fn new(settings: MotionSettings, width: usize, height: usize) -> Result<Self, RunError> {
+        let dense = DenseFlow::new(settings.dense)?;
+        let detector = MotionDetector::new(settings.motion)?;
+        let layout = dense.layout(width, height)?;
+        let cell = settings.dense.cell;
+        let storage = pyramid_storage_len(width, height, settings.dense.lk.max_level);
+        Ok(Self {
+            settings,
+            dense,
+            detector,
+            layout,
+            prev: None,
+            prev_storage: vec![0; storage],
+            next_storage: vec![0; storage],
+            scratch: vec![0; scratch_len(settings.dense.lk.window)],
+            nodes: vec![GridNode::EMPTY; layout.len()],
+            mask: vec![0; mask_words(width, height, cell)],
+            motion_scratch: vec![0; motion_scratch_len(width, height, cell)],
+            boxes: vec![MotionBox::default(); MAX_BOXES],
+        })
+    }
+
+    /// The grid.
+    pub fn layout(&self) -> &GridLayout {
+        &self.layout
+    }
+
+    /// The nodes of the last pair, row by row.
+    pub fn nodes(&self) -> &[GridNode] {
+        &self.nodes
+    }
+
+    /// Takes the next frame; from the second frame on, returns what moved between the frame
+    /// before and this one.
+    pub fn push(&mut self, frame: Frame) -> Result<Option<MotionFrame>, RunError> {
+        let levels = self.settings.dense.lk.max_level;
+        let next = Pyramid::build(view(&frame)?, levels, &mut self.next_storage)?;
+        let found = match &self.prev {
+            None => None,
+            Some(prev) => {
+                let prev = Pyramid::from_storage(view(prev)?, levels, &self.prev_storage)?;
+                self.dense
+                    .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
+                Some(self.detect()?)
+            }
+        };
+        std::mem::swap(&mut self.prev_storage, &mut self.next_storage);
+        self.prev = Some(frame);
+        Ok(found)
+    }
+
+    /// Camera motion, mask and boxes of the current nodes.
+    fn detect(&mut self) -> Result<MotionFrame, RunError> {
+        let camera = DominantMotion::fit(&self.layout, &self.nodes, &self.settings.fit)?;
+        let summary = self.detector.detect(
+            &self.layout,
+            &self.nodes,
+            &camera.motion,
+            &mut self.mask,
+            &mut self.motion_scratch,
+            &mut self.boxes,
+        )?;
+        Ok(MotionFrame {
+            camera,
+            summary,
+            boxes: self.boxes.get(..summary.boxes).unwrap_or(&[]).to_vec(),
+            mask: self.mask.clone(),
+        })
+    }
+}

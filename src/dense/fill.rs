@@ -1,0 +1,184 @@
+//! Filling invalid nodes from their valid neighbours.
+//!
+//! A flat patch of road or sky has no flow of its own, but pictures, interpolated flow fields
+//! and the motion mask want a value there. Each pass gives every still-empty node the
+//! component-wise median of the flows around it (its 3 x 3 neighbourhood), provided at least
+//! [`MIN_SOURCES`] of them are known: measured, or filled by an *earlier* pass. Only earlier
+//! passes count, so the result does not depend on the order the nodes are visited in, and pass
+//! `k` reaches exactly `k` nodes away from the measurements. The median, unlike the mean, does
+//! not blend an object's flow with the background's at its border.
+
+use super::grid::{GridLayout, GridNode, NodeStatus, NEIGHBOURS};
+use crate::q16::{Point, Q16};
+
+/// Known neighbours a node needs to be filled: one alone would copy a possibly wrong value.
+pub const MIN_SOURCES: usize = 2;
+
+/// Runs `passes` fill passes over the first [`GridLayout::len`] `nodes` and returns how many
+/// nodes were filled. Filled nodes get [`NodeStatus::Filled`] and the pass number in
+/// [`GridNode::fill_pass`]; nodes already filled count as earlier passes.
+///
+/// ```
+/// use kestrel::dense::fill::fill_invalid;
+/// use kestrel::dense::grid::{GridLayout, GridNode, NodeStatus};
+/// use kestrel::Point;
+///
+/// // A 3 x 3 grid: the centre is unknown, its neighbours moved 2 px right.
+/// let layout = GridLayout::new(24, 24, 8).unwrap();
+/// let mut nodes = [GridNode::tracked(Point::from_f32(2.0, 0.0)); 9];
+/// nodes[4] = GridNode::invalid(NodeStatus::LowTexture);
+/// assert_eq!(fill_invalid(&layout, &mut nodes, 2), 1);
+/// assert_eq!(nodes[4].status, NodeStatus::Filled);
+/// assert_eq!(nodes[4].flow.to_f32(), (2.0, 0.0));
+/// ```
+pub fn fill_invalid(layout: &GridLayout, nodes: &mut [GridNode], passes: u8) -> usize {
+    let len = layout.len().min(nodes.len());
+    let nodes = nodes.get_mut(..len).unwrap_or(&mut []);
+    // Nodes filled by an earlier call count as earlier passes.
+    let done = nodes.iter().map(|n| n.fill_pass).max().unwrap_or(0);
+    let mut filled = 0;
+    for pass in (1..=passes).map(|p| done.saturating_add(p)) {
+        let mut filled_now = 0;
+        for index in 0..nodes.len() {
+            let empty = nodes.get(index).is_some_and(|n| !n.has_flow());
+            if !empty {
+                continue;
+            }
+            if let Some(flow) = neighbour_median(layout, nodes, index, pass) {
+                if let Some(node) = nodes.get_mut(index) {
+                    *node = GridNode {
+                        flow,
+                        status: NodeStatus::Filled,
+                        fill_pass: pass,
+                    };
+                    filled_now += 1;
+                }
+            }
+        }
+        if filled_now == 0 {
+            break;
+        }
+        filled += filled_now;
+    }
+    filled
+}
+
+/// The component-wise median of the known neighbours of node `index`, counting filled nodes
+/// only from passes before `pass`; `None` with fewer than [`MIN_SOURCES`].
+fn neighbour_median(
+    layout: &GridLayout,
+    nodes: &[GridNode],
+    index: usize,
+    pass: u8,
+) -> Option<Point> {
+    let mut xs = [0i32; 8];
+    let mut ys = [0i32; 8];
+    let mut count = 0;
+    for offset in NEIGHBOURS {
+        let neighbour = layout.neighbour(index, offset).and_then(|i| nodes.get(i));
+        let Some(n) = neighbour else { continue };
+        let known = n.status == NodeStatus::Tracked
+            || (n.status == NodeStatus::Filled && n.fill_pass < pass);
+        if let (true, Some(x), Some(y)) = (known, xs.get_mut(count), ys.get_mut(count)) {
+            *x = n.flow.x.to_bits();
+            *y = n.flow.y.to_bits();
+            count += 1;
+        }
+    }
+    if count < MIN_SOURCES {
+        return None;
+    }
+    let x = median(xs.get_mut(..count)?);
+    let y = median(ys.get_mut(..count)?);
+    Some(Point::new(Q16::from_bits(x), Q16::from_bits(y)))
+}
+
+/// The median of at most eight values (the mean of the middle two for an even count); sorts
+/// `values` in place.
+fn median(values: &mut [i32]) -> i32 {
+    values.sort_unstable();
+    let middle = values.len() / 2;
+    let upper = values.get(middle).copied().unwrap_or(0);
+    if values.len() % 2 == 1 {
+        return upper;
+    }
+    let lower = values.get(middle.wrapping_sub(1)).copied().unwrap_or(upper);
+    ((i64::from(lower) + i64::from(upper)) / 2) as i32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(dx: f32, dy: f32) -> GridNode {
+        GridNode::tracked(Point::from_f32(dx, dy))
+    }
+
+    #[test]
+    fn passes_reach_one_node_further_each() {
+        // A 5 x 2 grid of 4 px cells: only the first two columns are measured.
+        let layout = GridLayout::new(20, 8, 4).unwrap();
+        let mut nodes = [GridNode::EMPTY; 10];
+        for i in [0, 1, 5, 6] {
+            nodes[i] = node(1.0, 0.0);
+        }
+        assert_eq!(fill_invalid(&layout, &mut nodes, 1), 2);
+        assert_eq!((nodes[2].fill_pass, nodes[7].fill_pass), (1, 1));
+        assert_eq!(nodes[3].status, NodeStatus::Lost);
+        // A later call continues where the first stopped: pass 2, then pass 3.
+        assert_eq!(fill_invalid(&layout, &mut nodes, 5), 4);
+        assert_eq!((nodes[3].fill_pass, nodes[9].fill_pass), (2, 3));
+        assert_eq!(nodes[9].flow.to_f32(), (1.0, 0.0));
+    }
+
+    #[test]
+    fn a_lone_neighbour_is_not_copied() {
+        let layout = GridLayout::new(8, 4, 4).unwrap();
+        let mut nodes = [node(1.0, 0.0), GridNode::EMPTY];
+        assert_eq!(fill_invalid(&layout, &mut nodes, 3), 0);
+    }
+
+    #[test]
+    fn the_median_ignores_a_minority_of_other_flows() {
+        let layout = GridLayout::new(24, 24, 8).unwrap();
+        let mut nodes = [node(1.0, 1.0); 9];
+        nodes[0] = node(9.0, -9.0);
+        nodes[4] = GridNode::invalid(NodeStatus::Residual);
+        fill_invalid(&layout, &mut nodes, 1);
+        assert_eq!(nodes[4].flow.to_f32(), (1.0, 1.0));
+    }
+
+    #[test]
+    fn order_does_not_matter_within_a_pass() {
+        // Two empty nodes side by side between measured columns: both see only measured nodes.
+        let layout = GridLayout::new(32, 8, 8).unwrap();
+        let mut nodes = [
+            node(2.0, 0.0),
+            GridNode::EMPTY,
+            GridNode::EMPTY,
+            node(4.0, 0.0),
+        ];
+        assert_eq!(fill_invalid(&layout, &mut nodes, 3), 0);
+        let layout = GridLayout::new(32, 16, 8).unwrap();
+        let mut nodes = [
+            node(2.0, 0.0),
+            GridNode::EMPTY,
+            GridNode::EMPTY,
+            node(4.0, 0.0),
+            node(2.0, 0.0),
+            node(2.0, 0.0),
+            node(4.0, 0.0),
+            node(4.0, 0.0),
+        ];
+        assert_eq!(fill_invalid(&layout, &mut nodes, 1), 2);
+        assert_eq!(nodes[1].flow.to_f32(), (2.0, 0.0));
+        assert_eq!(nodes[2].flow.to_f32(), (4.0, 0.0));
+    }
+
+    #[test]
+    fn median_of_even_and_odd_counts() {
+        assert_eq!(median(&mut [3, 1, 2]), 2);
+        assert_eq!(median(&mut [4, 1, 3, 2]), 2);
+        assert_eq!(median(&mut [i32::MAX, i32::MAX]), i32::MAX);
+    }
+}

@@ -1,0 +1,667 @@
+//! Flow at every node of a regular grid.
+//!
+//! A `cell` x `cell` grid covers the frame; its nodes sit at the cell centres,
+//! `(cell/2 + i·cell, cell/2 + j·cell)`, for every centre inside the frame (so a partial last cell
+//! still has a node when its centre fits). Each node is tracked from the previous frame to the
+//! next by the core pyramidal LK ([`LucasKanade::track_point`]) and classified:
+//!
+//! - [`NodeStatus::Tracked`]: converged, inside the frame, residual under the gate;
+//! - [`NodeStatus::LowTexture`]: the window is too flat to say anything;
+//! - [`NodeStatus::Residual`]: converged, but the window does not match (occlusion, a moving
+//!   edge, a reflection): the flow is not trusted;
+//! - [`NodeStatus::Lost`]: the iterations did not converge, or the node left the frame;
+//! - [`NodeStatus::Filled`]: was invalid, then filled from valid neighbours ([`super::fill`]).
+//!
+//! Dense mode wants smaller windows than sparse tracking: a node's window should see one
+//! surface, not the object and the background around it. The default is 9 x 9 on an 8 px grid.
+
+use super::fill::fill_invalid;
+use super::DenseError;
+use crate::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
+use crate::pyramid::{level_size, Pyramid};
+use crate::q16::Point;
+
+/// Nodes along one side of `size` px with `cell` px cells: the centres `cell/2 + k·cell` that lie
+/// inside `0..size`. Zero when `cell` is zero.
+///
+/// ```
+/// use kestrel::dense::grid::grid_side;
+/// assert_eq!(grid_side(160, 8), 20);
+/// assert_eq!(grid_side(101, 8), 13); // the 13th centre, 100, is the last pixel
+/// assert_eq!(grid_side(100, 8), 12);
+/// assert_eq!(grid_side(5, 0), 0);
+/// ```
+pub const fn grid_side(size: usize, cell: usize) -> usize {
+    if cell == 0 || size <= cell / 2 {
+        return 0;
+    }
+    (size - 1 - cell / 2) / cell + 1
+}
+
+/// Nodes of the grid over a `width` x `height` frame with `cell` px cells: the length of the
+/// node slice [`DenseFlow::compute`] fills.
+///
+/// ```
+/// use kestrel::dense::grid::{grid_len, GridNode};
+/// static mut NODES: [GridNode; grid_len(160, 120, 8)] = [GridNode::EMPTY; grid_len(160, 120, 8)];
+/// assert_eq!(grid_len(160, 120, 8), 300);
+/// assert_eq!(grid_len(320, 240, 8), 1200);
+/// ```
+pub const fn grid_len(width: usize, height: usize, cell: usize) -> usize {
+    grid_side(width, cell) * grid_side(height, cell)
+}
+
+/// The geometry of a grid: frame size, cell size, and the nodes' columns and rows.
+///
+/// ```
+/// use kestrel::dense::grid::GridLayout;
+/// let layout = GridLayout::new(160, 120, 8).unwrap();
+/// assert_eq!((layout.cols(), layout.rows(), layout.len()), (20, 15, 300));
+/// assert_eq!(layout.centre(0, 0), (4, 4));
+/// assert_eq!(layout.centre(19, 14), (156, 116));
+/// assert_eq!(layout.index(1, 2), Some(41));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GridLayout {
+    width: usize,
+    height: usize,
+    cell: usize,
+    cols: usize,
+    rows: usize,
+}
+
+impl GridLayout {
+    /// The grid of `cell` px cells over a `width` x `height` frame.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::GridLayout;
+    /// use kestrel::dense::DenseError;
+    /// assert_eq!(GridLayout::new(160, 120, 0), Err(DenseError::ZeroCell));
+    /// assert_eq!(GridLayout::new(160, 120, 121), Err(DenseError::CellTooLarge));
+    /// assert!(GridLayout::new(160, 120, 120).is_ok());
+    /// ```
+    pub const fn new(width: usize, height: usize, cell: usize) -> Result<Self, DenseError> {
+        if cell == 0 {
+            return Err(DenseError::ZeroCell);
+        }
+        if cell > width || cell > height {
+            return Err(DenseError::CellTooLarge);
+        }
+        Ok(Self {
+            width,
+            height,
+            cell,
+            cols: grid_side(width, cell),
+            rows: grid_side(height, cell),
+        })
+    }
+
+    /// Frame width, px.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().width(), 160);
+    /// ```
+    pub const fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Frame height, px.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().height(), 120);
+    /// ```
+    pub const fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Cell side, px: the distance between neighbouring nodes.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().cell(), 8);
+    /// ```
+    pub const fn cell(&self) -> usize {
+        self.cell
+    }
+
+    /// Node columns.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().cols(), 12);
+    /// ```
+    pub const fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Node rows.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().rows(), 6);
+    /// ```
+    pub const fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Number of nodes, [`grid_len`] of the frame and cell.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().len(), 72);
+    /// ```
+    pub const fn len(&self) -> usize {
+        self.cols * self.rows
+    }
+
+    /// True when the grid has no node (never, for a layout [`GridLayout::new`] accepted).
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert!(!GridLayout::new(8, 8, 8).unwrap().is_empty());
+    /// ```
+    pub const fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The pixel at the centre of node (`col`, `row`).
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(64, 64, 16).unwrap().centre(1, 3), (24, 56));
+    /// ```
+    pub const fn centre(&self, col: usize, row: usize) -> (usize, usize) {
+        (
+            self.cell / 2 + col * self.cell,
+            self.cell / 2 + row * self.cell,
+        )
+    }
+
+    /// The index of node (`col`, `row`) in a node slice (row by row), `None` off the grid.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// let layout = GridLayout::new(64, 64, 16).unwrap();
+    /// assert_eq!(layout.index(3, 3), Some(15));
+    /// assert_eq!(layout.index(4, 0), None);
+    /// ```
+    pub const fn index(&self, col: usize, row: usize) -> Option<usize> {
+        if col < self.cols && row < self.rows {
+            Some(row * self.cols + col)
+        } else {
+            None
+        }
+    }
+
+    /// The column and row of the node at `index`.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// assert_eq!(GridLayout::new(64, 64, 16).unwrap().node(6), (2, 1));
+    /// ```
+    pub const fn node(&self, index: usize) -> (usize, usize) {
+        // `cols` is at least 1 for an accepted layout; the guard keeps the division panic-free.
+        let cols = if self.cols == 0 { 1 } else { self.cols };
+        (index % cols, index / cols)
+    }
+
+    /// The index of the node `offset` (columns, rows) away from node `index`; `None` off the
+    /// grid.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// let layout = GridLayout::new(64, 64, 16).unwrap();
+    /// assert_eq!(layout.neighbour(5, (1, 1)), Some(10));
+    /// assert_eq!(layout.neighbour(4, (-1, 0)), None);
+    /// ```
+    pub fn neighbour(&self, index: usize, (dc, dr): (isize, isize)) -> Option<usize> {
+        let (col, row) = self.node(index);
+        self.index(col.checked_add_signed(dc)?, row.checked_add_signed(dr)?)
+    }
+
+    /// The pixels of node (`col`, `row`)'s cell, clipped to the frame: `(x, y, width, height)`.
+    ///
+    /// ```
+    /// # use kestrel::dense::grid::GridLayout;
+    /// let layout = GridLayout::new(100, 50, 8).unwrap();
+    /// assert_eq!(layout.cell_rect(0, 0), (0, 0, 8, 8));
+    /// assert_eq!(layout.cell_rect(11, 5), (88, 40, 8, 8));
+    /// ```
+    pub fn cell_rect(&self, col: usize, row: usize) -> (usize, usize, usize, usize) {
+        self.span_rect(col, row, col, row)
+    }
+
+    /// The pixels covered by the cells of columns `c0..=c1` and rows `r0..=r1`, clipped to the
+    /// frame: `(x, y, width, height)`.
+    pub(crate) fn span_rect(
+        &self,
+        c0: usize,
+        r0: usize,
+        c1: usize,
+        r1: usize,
+    ) -> (usize, usize, usize, usize) {
+        let x = (c0 * self.cell).min(self.width);
+        let y = (r0 * self.cell).min(self.height);
+        let right = ((c1 + 1) * self.cell).min(self.width);
+        let bottom = ((r1 + 1) * self.cell).min(self.height);
+        (x, y, right.saturating_sub(x), bottom.saturating_sub(y))
+    }
+}
+
+/// The eight neighbours of a node, as (column, row) offsets.
+pub(crate) const NEIGHBOURS: [(isize, isize); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// What is known about one node's flow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NodeStatus {
+    /// Measured: LK converged inside the frame with a residual under the gate.
+    Tracked,
+    /// The window is too flat to measure flow.
+    LowTexture,
+    /// LK converged, but the window's residual is above the gate.
+    Residual,
+    /// LK did not converge, or the node or its estimate left the frame.
+    #[default]
+    Lost,
+    /// Invalid, then filled from valid neighbours: usable for pictures and masks, not a
+    /// measurement.
+    Filled,
+}
+
+/// The flow at one grid node.
+///
+/// ```
+/// use kestrel::dense::grid::{GridNode, NodeStatus};
+/// use kestrel::Point;
+/// let node = GridNode::tracked(Point::from_f32(1.5, -0.25));
+/// assert!(node.is_valid() && node.has_flow());
+/// assert!(!GridNode::EMPTY.has_flow());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GridNode {
+    /// Displacement of the node's centre from the previous frame to the next, px. Zero for
+    /// nodes that are neither tracked nor filled.
+    pub flow: Point,
+    /// Whether the flow was measured, filled, or is unknown and why.
+    pub status: NodeStatus,
+    /// For a filled node, the fill pass that filled it: 1 next to a measured node, 2 one node
+    /// further, and so on. 0 for every other node.
+    pub fill_pass: u8,
+}
+
+impl GridNode {
+    /// A node without flow ([`NodeStatus::Lost`]), for initialising static buffers.
+    pub const EMPTY: Self = Self {
+        flow: Point::from_bits(0, 0),
+        status: NodeStatus::Lost,
+        fill_pass: 0,
+    };
+
+    /// A measured node.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// assert_eq!(GridNode::tracked(Default::default()).status, NodeStatus::Tracked);
+    /// ```
+    pub const fn tracked(flow: Point) -> Self {
+        Self {
+            flow,
+            status: NodeStatus::Tracked,
+            fill_pass: 0,
+        }
+    }
+
+    /// A node whose flow is unknown for `status`'s reason.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// assert!(!GridNode::invalid(NodeStatus::LowTexture).is_valid());
+    /// ```
+    pub const fn invalid(status: NodeStatus) -> Self {
+        Self {
+            status,
+            ..Self::EMPTY
+        }
+    }
+
+    /// True when the flow was measured ([`NodeStatus::Tracked`]).
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// assert!(!GridNode { status: NodeStatus::Filled, ..GridNode::EMPTY }.is_valid());
+    /// ```
+    pub fn is_valid(&self) -> bool {
+        self.status == NodeStatus::Tracked
+    }
+
+    /// True when the node has a flow, measured or filled.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// assert!(GridNode { status: NodeStatus::Filled, ..GridNode::EMPTY }.has_flow());
+    /// ```
+    pub fn has_flow(&self) -> bool {
+        matches!(self.status, NodeStatus::Tracked | NodeStatus::Filled)
+    }
+}
+
+/// Dense-mode parameters.
+///
+/// ```
+/// use kestrel::dense::grid::DenseParams;
+/// let p = DenseParams::default();
+/// assert_eq!((p.cell, p.lk.window, p.lk.min_eigen_threshold, p.fill_passes), (8, 9, 3e-3, 2));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DenseParams {
+    /// Grid spacing, px (at least 1, at most the frame's smaller side).
+    pub cell: usize,
+    /// The LK tracker's parameters; dense mode defaults to a 9 x 9 window and a minimum
+    /// eigenvalue of [`DenseParams::DEFAULT_MIN_EIGEN`].
+    pub lk: LkParams,
+    /// Residual gate, grey levels: a converged node whose mean absolute residual (after the
+    /// gain and bias correction) is above it is [`NodeStatus::Residual`].
+    pub max_residual: f32,
+    /// Passes of [`fill_invalid`] after tracking; 0 leaves invalid nodes empty.
+    pub fill_passes: u8,
+}
+
+impl DenseParams {
+    /// The default LK window in dense mode, px.
+    pub const DEFAULT_WINDOW: usize = 9;
+    /// The default LK minimum eigenvalue in dense mode, in OpenCV's scale (see
+    /// [`LkParams::min_eigen_threshold`]).
+    pub const DEFAULT_MIN_EIGEN: f32 = 3e-3;
+}
+
+impl Default for DenseParams {
+    fn default() -> Self {
+        Self {
+            cell: 8,
+            lk: LkParams {
+                window: Self::DEFAULT_WINDOW,
+                min_eigen_threshold: Self::DEFAULT_MIN_EIGEN,
+                ..LkParams::default()
+            },
+            max_residual: 12.0,
+            fill_passes: 2,
+        }
+    }
+}
+
+/// What one [`DenseFlow::compute`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DenseSummary {
+    /// The grid the nodes were written for.
+    pub layout: GridLayout,
+    /// Nodes measured ([`NodeStatus::Tracked`]).
+    pub tracked: usize,
+    /// Nodes filled from their neighbours ([`NodeStatus::Filled`]).
+    pub filled: usize,
+}
+
+/// A validated dense-flow configuration.
+#[derive(Debug, Clone, Copy)]
+pub struct DenseFlow {
+    params: DenseParams,
+    lk: LucasKanade,
+}
+
+impl DenseFlow {
+    /// Validates `params`.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
+    /// use kestrel::dense::DenseError;
+    /// assert!(DenseFlow::new(DenseParams::default()).is_ok());
+    /// let zero = DenseParams { cell: 0, ..DenseParams::default() };
+    /// assert_eq!(DenseFlow::new(zero).unwrap_err(), DenseError::ZeroCell);
+    /// let gate = DenseParams { max_residual: f32::NAN, ..DenseParams::default() };
+    /// assert_eq!(DenseFlow::new(gate).unwrap_err(), DenseError::BadThreshold);
+    /// ```
+    pub fn new(params: DenseParams) -> Result<Self, DenseError> {
+        if params.cell == 0 {
+            return Err(DenseError::ZeroCell);
+        }
+        if !params.max_residual.is_finite() || params.max_residual < 0.0 {
+            return Err(DenseError::BadThreshold);
+        }
+        let lk = LucasKanade::new(params.lk).map_err(DenseError::Lk)?;
+        Ok(Self { params, lk })
+    }
+
+    /// The parameters this configuration was built with.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
+    /// assert_eq!(DenseFlow::new(DenseParams::default()).unwrap().params().cell, 8);
+    /// ```
+    pub fn params(&self) -> &DenseParams {
+        &self.params
+    }
+
+    /// The grid this configuration lays over `width` x `height` frames.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
+    /// let dense = DenseFlow::new(DenseParams::default()).unwrap();
+    /// assert_eq!(dense.layout(320, 240).unwrap().len(), 1200);
+    /// ```
+    pub fn layout(&self, width: usize, height: usize) -> Result<GridLayout, DenseError> {
+        GridLayout::new(width, height, self.params.cell)
+    }
+
+    /// Tracks every node from `prev` to `next` into `nodes` (row by row, at least
+    /// [`grid_len`] long; entries beyond it are left alone), then fills invalid nodes.
+    ///
+    /// `scratch` is LK's, [`scratch_len`]`(params.lk.window)` values. See the module example.
+    pub fn compute(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        nodes: &mut [GridNode],
+        scratch: &mut [i16],
+    ) -> Result<DenseSummary, DenseError> {
+        let layout = self.check(prev, next, nodes.len(), scratch.len())?;
+        let mut tracked = 0;
+        for (index, node) in nodes.iter_mut().take(layout.len()).enumerate() {
+            let (col, row) = layout.node(index);
+            *node = self.track_node(prev, next, layout.centre(col, row), scratch)?;
+            tracked += usize::from(node.is_valid());
+        }
+        let filled = fill_invalid(&layout, nodes, self.params.fill_passes);
+        Ok(DenseSummary {
+            layout,
+            tracked,
+            filled,
+        })
+    }
+
+    /// Checks the inputs of [`DenseFlow::compute`] and returns the grid.
+    fn check(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        nodes: usize,
+        scratch: usize,
+    ) -> Result<GridLayout, DenseError> {
+        let base = prev.base();
+        if !base.same_size(&next.base()) {
+            return Err(DenseError::FrameSizeMismatch);
+        }
+        let layout = self.layout(base.width(), base.height())?;
+        let top = self
+            .params
+            .lk
+            .max_level
+            .min(prev.max_level())
+            .min(next.max_level());
+        let smallest = level_size(base.width(), top).min(level_size(base.height(), top));
+        if smallest < self.params.lk.window / 2 + 1 {
+            return Err(DenseError::FrameTooSmall);
+        }
+        if nodes < layout.len() {
+            return Err(DenseError::NodesTooShort);
+        }
+        if scratch < scratch_len(self.params.lk.window) {
+            return Err(DenseError::ScratchTooSmall);
+        }
+        Ok(layout)
+    }
+
+    /// Tracks the node centred at pixel `centre` and classifies it.
+    fn track_node(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        (x, y): (usize, usize),
+        scratch: &mut [i16],
+    ) -> Result<GridNode, DenseError> {
+        // Centres are below MAX_DIMENSION = 4096, so the Q16 conversion is exact.
+        let start = Point::from_bits((x as i32) << 16, (y as i32) << 16);
+        let track = self
+            .lk
+            .track_point(prev, next, start, None, scratch)
+            .map_err(DenseError::Lk)?;
+        Ok(match track.status {
+            TrackStatus::Tracked if track.residual.to_num::<f32>() > self.params.max_residual => {
+                GridNode::invalid(NodeStatus::Residual)
+            }
+            TrackStatus::Tracked => GridNode::tracked(Point::new(
+                track.position.x.saturating_sub(start.x),
+                track.position.y.saturating_sub(start.y),
+            )),
+            TrackStatus::LowTexture => GridNode::invalid(NodeStatus::LowTexture),
+            TrackStatus::NotConverged | TrackStatus::OutOfBounds => {
+                GridNode::invalid(NodeStatus::Lost)
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::ImageView;
+    use crate::lk::LkParams;
+    use crate::pyramid::pyramid_storage_len;
+
+    #[test]
+    fn sides_cover_every_centre_inside_the_frame() {
+        for size in 1..40 {
+            for cell in 1..=size {
+                let n = grid_side(size, cell);
+                assert!(n >= 1, "{size} {cell}");
+                assert!(cell / 2 + (n - 1) * cell < size);
+                assert!(cell / 2 + n * cell >= size);
+            }
+        }
+    }
+
+    #[test]
+    fn cell_rects_clip_to_the_frame() {
+        let layout = GridLayout::new(20, 10, 6).unwrap();
+        assert_eq!((layout.cols(), layout.rows()), (3, 2));
+        assert_eq!(layout.cell_rect(2, 1), (12, 6, 6, 4));
+        assert_eq!(layout.span_rect(0, 0, 2, 1), (0, 0, 18, 10));
+    }
+
+    fn flat_pyramids<'a>(
+        pixels: &'a [u8],
+        width: usize,
+        height: usize,
+        levels: usize,
+        storage: &'a mut [u8],
+    ) -> Pyramid<'a> {
+        let frame = ImageView::packed(pixels, width, height).unwrap();
+        Pyramid::build(frame, levels, storage).unwrap()
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let pixels = [100u8; 64 * 48];
+        let mut storage = [0u8; pyramid_storage_len(64, 48, 3)];
+        let p = flat_pyramids(&pixels, 64, 48, 3, &mut storage);
+        let mut nodes = [GridNode::EMPTY; grid_len(64, 48, 8)];
+        let mut scratch = [0i16; scratch_len(9)];
+        let dense = |cell, window, max_level| {
+            DenseFlow::new(DenseParams {
+                cell,
+                lk: LkParams {
+                    window,
+                    max_level,
+                    ..LkParams::default()
+                },
+                ..DenseParams::default()
+            })
+        };
+        let ok = dense(8, 9, 2).unwrap();
+        assert!(ok.compute(&p, &p, &mut nodes, &mut scratch).is_ok());
+        // Level 3 of 64 x 48 is 8 x 6, narrower than half a 21 px window.
+        let wide = dense(8, 21, 3).unwrap();
+        let mut big_scratch = [0i16; scratch_len(21)];
+        assert_eq!(
+            wide.compute(&p, &p, &mut nodes, &mut big_scratch),
+            Err(DenseError::FrameTooSmall)
+        );
+        assert_eq!(
+            dense(49, 9, 0)
+                .unwrap()
+                .compute(&p, &p, &mut nodes, &mut scratch),
+            Err(DenseError::CellTooLarge)
+        );
+        assert_eq!(dense(0, 9, 0).unwrap_err(), DenseError::ZeroCell);
+        assert_eq!(
+            dense(8, 10, 0).unwrap_err(),
+            DenseError::Lk(crate::lk::LkError::BadWindow)
+        );
+        assert_eq!(
+            ok.compute(&p, &p, &mut nodes[..10], &mut scratch),
+            Err(DenseError::NodesTooShort)
+        );
+        assert_eq!(
+            ok.compute(&p, &p, &mut nodes, &mut scratch[..10]),
+            Err(DenseError::ScratchTooSmall)
+        );
+        let other = [100u8; 48 * 48];
+        let mut other_storage = [0u8; pyramid_storage_len(48, 48, 3)];
+        let q = flat_pyramids(&other, 48, 48, 3, &mut other_storage);
+        assert_eq!(
+            ok.compute(&p, &q, &mut nodes, &mut scratch),
+            Err(DenseError::FrameSizeMismatch)
+        );
+    }
+
+    #[test]
+    fn flat_frames_give_low_texture_nodes() {
+        let pixels = [100u8; 32 * 32];
+        let mut storage = [0u8; pyramid_storage_len(32, 32, 1)];
+        let p = flat_pyramids(&pixels, 32, 32, 1, &mut storage);
+        let dense = DenseFlow::new(DenseParams {
+            fill_passes: 0,
+            ..DenseParams::default()
+        })
+        .unwrap();
+        let mut nodes = [GridNode::EMPTY; grid_len(32, 32, 8)];
+        let mut scratch = [0i16; scratch_len(9)];
+        let summary = dense.compute(&p, &p, &mut nodes, &mut scratch).unwrap();
+        assert_eq!((summary.tracked, summary.filled), (0, 0));
+        assert!(nodes.iter().all(|n| n.status == NodeStatus::LowTexture));
+    }
+}

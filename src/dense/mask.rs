@@ -1,0 +1,254 @@
+//! Node masks: one bit per grid node, and morphology on the grid.
+//!
+//! A mask is a caller-owned `&mut [u32]` of [`mask_words`] words; bit `i % 32` of word `i / 32`
+//! is node `i` (row by row, like the node slice). Bits past the last node stay clear.
+//!
+//! Closing (dilate, then erode) joins the fragments of one object and fills one-node holes;
+//! opening (erode, then dilate) removes specks smaller than the structuring element. Both are
+//! translation invariant, so even the 2 x 2 element has no bias towards a corner.
+//!
+//! At the grid's edge: the erosion of an opening treats nodes beyond the grid as set, so an
+//! object entering at the frame's edge is not eaten away by it; the erosion of a closing treats
+//! them as clear, so a closing never grows an object into the edge row, and it keeps every node
+//! that was set (a gap in the edge row itself stays open).
+
+use super::grid::{grid_len, GridLayout};
+use super::DenseError;
+
+/// `u32` words of a mask over the grid of `cell` px cells on a `width` x `height` frame.
+///
+/// ```
+/// use kestrel::dense::mask::mask_words;
+/// static mut MASK: [u32; mask_words(160, 120, 8)] = [0; mask_words(160, 120, 8)];
+/// assert_eq!(mask_words(160, 120, 8), 10); // 300 nodes
+/// assert_eq!(mask_words(320, 240, 8), 38); // 1200 nodes
+/// ```
+pub const fn mask_words(width: usize, height: usize, cell: usize) -> usize {
+    words_for(grid_len(width, height, cell))
+}
+
+/// Words holding `nodes` bits.
+pub(crate) const fn words_for(nodes: usize) -> usize {
+    nodes.div_ceil(32)
+}
+
+/// True when node `index` is set; false beyond the mask.
+///
+/// ```
+/// use kestrel::dense::mask::contains;
+/// let mask = [0b101, 1 << 31];
+/// assert!(contains(&mask, 0) && !contains(&mask, 1) && contains(&mask, 2));
+/// assert!(contains(&mask, 63) && !contains(&mask, 64));
+/// ```
+pub fn contains(mask: &[u32], index: usize) -> bool {
+    mask.get(index / 32)
+        .is_some_and(|word| word & (1 << (index % 32)) != 0)
+}
+
+/// Sets node `index` to `value`; nothing beyond the mask.
+///
+/// ```
+/// use kestrel::dense::mask::{contains, set};
+/// let mut mask = [0u32; 2];
+/// set(&mut mask, 40, true);
+/// assert!(contains(&mask, 40));
+/// set(&mut mask, 40, false);
+/// assert_eq!(mask, [0, 0]);
+/// ```
+pub fn set(mask: &mut [u32], index: usize, value: bool) {
+    if let Some(word) = mask.get_mut(index / 32) {
+        let bit = 1 << (index % 32);
+        if value {
+            *word |= bit;
+        } else {
+            *word &= !bit;
+        }
+    }
+}
+
+/// Number of set nodes among the first `len`.
+///
+/// ```
+/// use kestrel::dense::mask::count;
+/// assert_eq!(count(&[0b1011, 1], 33), 4);
+/// assert_eq!(count(&[0b1011, 1], 2), 2);
+/// ```
+pub fn count(mask: &[u32], len: usize) -> usize {
+    (0..len).filter(|&i| contains(mask, i)).count()
+}
+
+/// A structuring element on the grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Structure {
+    /// A 2 x 2 square: opening keeps every node that is part of a 2 x 2 block of set nodes.
+    Square2,
+    /// A 3 x 3 square centred on the node.
+    Square3,
+}
+
+impl Structure {
+    /// The element's (column, row) offsets.
+    fn offsets(self) -> &'static [(isize, isize)] {
+        match self {
+            Structure::Square2 => &[(0, 0), (1, 0), (0, 1), (1, 1)],
+            Structure::Square3 => &[
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+                (-1, 0),
+                (0, 0),
+                (1, 0),
+                (-1, 1),
+                (0, 1),
+                (1, 1),
+            ],
+        }
+    }
+}
+
+/// Closes `mask` with `structure` (dilation, then erosion); `temp` is a second mask's worth of
+/// scratch.
+///
+/// ```
+/// use kestrel::dense::grid::GridLayout;
+/// use kestrel::dense::mask::{close, contains, Structure};
+/// // A 5 x 3 grid whose middle row has a one-node gap: closing fills it.
+/// let layout = GridLayout::new(40, 24, 8).unwrap();
+/// let mut mask = [0b11011 << 5];
+/// close(&layout, &mut mask, &mut [0], Structure::Square3).unwrap();
+/// assert_eq!(mask, [0b11111 << 5]);
+/// ```
+pub fn close(
+    layout: &GridLayout,
+    mask: &mut [u32],
+    temp: &mut [u32],
+    structure: Structure,
+) -> Result<(), DenseError> {
+    check(layout, mask, temp)?;
+    dilate(layout, mask, temp, structure);
+    for index in 0..layout.len() {
+        // In place: node `index` of `mask` is read once, just before it is written.
+        let closed = contains(mask, index) || eroded(layout, temp, index, structure, false);
+        set(mask, index, closed);
+    }
+    Ok(())
+}
+
+/// Opens `mask` with `structure` (erosion, then dilation); `temp` is a second mask's worth of
+/// scratch.
+///
+/// ```
+/// use kestrel::dense::grid::GridLayout;
+/// use kestrel::dense::mask::{open, Structure};
+/// // A 4 x 2 grid: a lone node on the left, a 2 x 2 block on the right.
+/// let layout = GridLayout::new(32, 16, 8).unwrap();
+/// let mut mask = [0b1100_1101];
+/// open(&layout, &mut mask, &mut [0], Structure::Square2).unwrap();
+/// assert_eq!(mask, [0b1100_1100]);
+/// ```
+pub fn open(
+    layout: &GridLayout,
+    mask: &mut [u32],
+    temp: &mut [u32],
+    structure: Structure,
+) -> Result<(), DenseError> {
+    check(layout, mask, temp)?;
+    for index in 0..layout.len() {
+        set(temp, index, eroded(layout, mask, index, structure, true));
+    }
+    dilate(layout, temp, mask, structure);
+    Ok(())
+}
+
+fn check(layout: &GridLayout, mask: &[u32], temp: &[u32]) -> Result<(), DenseError> {
+    let words = words_for(layout.len());
+    if mask.len() < words || temp.len() < words {
+        return Err(DenseError::MaskTooShort);
+    }
+    Ok(())
+}
+
+/// `dst(p) = OR over b of src(p - b)`, nodes beyond the grid clear.
+fn dilate(layout: &GridLayout, src: &[u32], dst: &mut [u32], structure: Structure) {
+    for index in 0..layout.len() {
+        let hit = structure
+            .offsets()
+            .iter()
+            .any(|&(dc, dr)| neighbour(layout, src, index, (-dc, -dr)).unwrap_or(false));
+        set(dst, index, hit);
+    }
+}
+
+/// `AND over b of src(p + b)` at node `index`, nodes beyond the grid reading as `outside`.
+fn eroded(
+    layout: &GridLayout,
+    src: &[u32],
+    index: usize,
+    structure: Structure,
+    outside: bool,
+) -> bool {
+    structure
+        .offsets()
+        .iter()
+        .all(|&offset| neighbour(layout, src, index, offset).unwrap_or(outside))
+}
+
+/// The bit of the node `offset` (columns, rows) away from node `index`; `None` off the grid.
+fn neighbour(
+    layout: &GridLayout,
+    mask: &[u32],
+    index: usize,
+    offset: (isize, isize),
+) -> Option<bool> {
+    layout.neighbour(index, offset).map(|i| contains(mask, i))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A mask from rows of `#` (set) and `.` (clear).
+    fn mask_of(rows: &[&str]) -> (GridLayout, [u32; 4]) {
+        let (cols, n) = (rows[0].len(), rows.len());
+        let layout = GridLayout::new(cols * 4, n * 4, 4).unwrap();
+        let mut mask = [0u32; 4];
+        for (r, line) in rows.iter().enumerate() {
+            for (c, ch) in line.chars().enumerate() {
+                set(&mut mask, r * cols + c, ch == '#');
+            }
+        }
+        (layout, mask)
+    }
+
+    #[test]
+    fn opening_with_3x3_removes_anything_thinner_than_three() {
+        let (layout, mut mask) =
+            mask_of(&["........", ".###..#.", ".###.##.", ".###....", "........"]);
+        let (_, expected) = mask_of(&["........", ".###....", ".###....", ".###....", "........"]);
+        open(&layout, &mut mask, &mut [0; 4], Structure::Square3).unwrap();
+        assert_eq!(mask, expected);
+    }
+
+    #[test]
+    fn closing_joins_fragments_without_growing_into_the_edge() {
+        let (layout, mut mask) = mask_of(&["##.##...", "#...#...", "##.##...", "........"]);
+        let (_, expected) = mask_of(&["##.##...", "#####...", "#####...", "........"]);
+        close(&layout, &mut mask, &mut [0; 4], Structure::Square3).unwrap();
+        assert_eq!(mask, expected);
+    }
+
+    #[test]
+    fn short_masks_are_refused() {
+        let layout = GridLayout::new(64, 64, 4).unwrap(); // 256 nodes, 8 words
+        let mut mask = [0u32; 8];
+        assert_eq!(
+            close(&layout, &mut mask, &mut [0; 7], Structure::Square2),
+            Err(DenseError::MaskTooShort)
+        );
+        assert_eq!(
+            open(&layout, &mut mask[..7], &mut [0; 8], Structure::Square2),
+            Err(DenseError::MaskTooShort)
+        );
+    }
+}

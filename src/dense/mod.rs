@@ -1,0 +1,131 @@
+//! Dense grid flow and moving-object detection.
+//!
+//! Corners say how the camera moves; they say little about *what else* moves. This module
+//! measures flow everywhere, on a coarse regular grid, and finds the parts of the frame whose
+//! motion differs from the camera's:
+//!
+//! 1. [`grid`]: LK flow at every node of a grid (node centres at `cell/2 + k·cell`), with a
+//!    validity per node from texture, convergence and the intensity residual.
+//! 2. [`fill`]: invalid nodes filled from their valid neighbours, marked as filled.
+//! 3. [`dominant`]: the camera's motion as a robust global affine model of the grid flow.
+//! 4. [`mask`]: nodes whose flow differs from that model, cleaned by morphology on the grid.
+//! 5. [`regions`]: connected regions of the mask as bounding boxes in pixels.
+//!
+//! [`motion::MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
+//! homography from the ego-motion estimator) can replace [`dominant::DominantMotion`] through
+//! the [`motion::CameraMotion`] trait.
+//!
+//! Nothing allocates: nodes, masks and boxes live in caller-owned slices sized by `const fn`s.
+//!
+//! # Memory
+//!
+//! With 8 px cells, a 9 px window and pyramids to level 3, flow and motion detection need,
+//! besides the two frames themselves (level 0 of each pyramid is the frame):
+//!
+//! | buffer | sized by | 160 x 120 | 320 x 240 |
+//! |---|---|---|---|
+//! | two pyramids, levels 1 to 3 | [`crate::pyramid::pyramid_storage_len`] | 12 600 B | 50 400 B |
+//! | nodes, 12 B each | [`grid::grid_len`] | 3 600 B | 14 400 B |
+//! | LK scratch | [`crate::lk::scratch_len`] | 1 422 B | 1 422 B |
+//! | mask | [`mask::mask_words`] | 40 B | 152 B |
+//! | motion scratch | [`motion::motion_scratch_len`] | 1 240 B | 4 952 B |
+//! | 16 boxes, 20 B each | | 320 B | 320 B |
+//! | total | | 19 222 B | 71 646 B |
+//!
+//! ```
+//! use core::mem::size_of;
+//! use kestrel::dense::{grid, mask, motion, regions};
+//! use kestrel::{lk, pyramid};
+//! const fn bytes(w: usize, h: usize) -> usize {
+//!     2 * pyramid::pyramid_storage_len(w, h, 3)
+//!         + grid::grid_len(w, h, 8) * size_of::<grid::GridNode>()
+//!         + lk::scratch_len(9) * size_of::<i16>()
+//!         + (mask::mask_words(w, h, 8) + motion::motion_scratch_len(w, h, 8)) * size_of::<u32>()
+//!         + 16 * size_of::<regions::MotionBox>()
+//! }
+//! assert_eq!((size_of::<grid::GridNode>(), size_of::<regions::MotionBox>()), (12, 20));
+//! assert_eq!((bytes(160, 120), bytes(320, 240)), (19_222, 71_646));
+//! ```
+//!
+//! On the stack, this module's largest buffer is the 64 B of a fill median (LK's use comes on
+//! top).
+//!
+//! ```
+//! use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode};
+//! use kestrel::frame::ImageView;
+//! use kestrel::lk::scratch_len;
+//! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+//!
+//! const W: usize = 64;
+//! const H: usize = 48;
+//! // A textured frame and the same texture 1 px to the right.
+//! let texture = |x: usize, y: usize| ((x * 37 + y * 91 + (x * y) % 13 * 17) % 251) as u8;
+//! let a: [u8; W * H] = core::array::from_fn(|i| texture(i % W + 1, i / W));
+//! let b: [u8; W * H] = core::array::from_fn(|i| texture(i % W, i / W));
+//! let mut storage_a = [0u8; pyramid_storage_len(W, H, 1)];
+//! let mut storage_b = [0u8; pyramid_storage_len(W, H, 1)];
+//! let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, &mut storage_a).unwrap();
+//! let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, &mut storage_b).unwrap();
+//!
+//! let dense = DenseFlow::new(DenseParams { cell: 16, ..DenseParams::default() }).unwrap();
+//! let mut nodes = [GridNode::default(); grid_len(W, H, 16)];
+//! let mut scratch = [0i16; scratch_len(DenseParams::DEFAULT_WINDOW)];
+//! let summary = dense.compute(&prev, &next, &mut nodes, &mut scratch).unwrap();
+//! assert_eq!((summary.layout.cols(), summary.layout.rows()), (4, 3));
+//! ```
+
+pub mod dominant;
+pub mod fill;
+pub mod grid;
+pub mod mask;
+pub mod motion;
+pub mod regions;
+
+use crate::lk::LkError;
+
+/// Why dense flow or motion detection could not run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DenseError {
+    /// The cell size is zero.
+    ZeroCell,
+    /// The cell is wider or higher than the frame.
+    CellTooLarge,
+    /// The coarsest pyramid level used is smaller than half an LK window per side.
+    FrameTooSmall,
+    /// The two pyramids were built from frames of different sizes.
+    FrameSizeMismatch,
+    /// The node slice is shorter than [`grid::grid_len`].
+    NodesTooShort,
+    /// The LK scratch is shorter than [`crate::lk::scratch_len`] for the window.
+    ScratchTooSmall,
+    /// The mask is shorter than [`mask::mask_words`].
+    MaskTooShort,
+    /// The motion scratch is shorter than [`motion::motion_scratch_len`].
+    MotionScratchTooShort,
+    /// A threshold is negative, NaN or infinite.
+    BadThreshold,
+    /// The LK parameters were refused.
+    Lk(LkError),
+}
+
+impl core::fmt::Display for DenseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            DenseError::ZeroCell => f.write_str("cell size must be at least 1 px"),
+            DenseError::CellTooLarge => f.write_str("cell is larger than the frame"),
+            DenseError::FrameTooSmall => {
+                f.write_str("frame is too small for the pyramid: the coarsest level is narrower than half a window")
+            }
+            DenseError::FrameSizeMismatch => f.write_str("previous and next frames differ in size"),
+            DenseError::NodesTooShort => f.write_str("node buffer is shorter than grid_len"),
+            DenseError::ScratchTooSmall => f.write_str("scratch is smaller than scratch_len(window)"),
+            DenseError::MaskTooShort => f.write_str("mask buffer is shorter than mask_words"),
+            DenseError::MotionScratchTooShort => {
+                f.write_str("motion scratch is shorter than motion_scratch_len")
+            }
+            DenseError::BadThreshold => f.write_str("thresholds must be finite numbers >= 0"),
+            DenseError::Lk(e) => write!(f, "tracker parameters: {e}"),
+        }
+    }
+}

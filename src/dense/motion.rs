@@ -1,0 +1,360 @@
+//! The motion mask and moving-object boxes.
+//!
+//! A node moves on its own when its flow differs from the flow the camera gives it by more
+//! than a threshold. The camera's flow comes from a [`CameraMotion`]: for a still camera
+//! [`DominantMotion::ZERO`] (the test is then the flow's magnitude), for a moving one the
+//! [`DominantMotion`] fitted to the same grid, or any better model such as a homography from
+//! the ego-motion estimator. The raw mask is closed and opened on the grid ([`super::mask`]),
+//! and its connected regions of at least a minimum size become boxes ([`super::regions`]).
+//!
+//! [`DominantMotion`]: super::dominant::DominantMotion
+//! [`DominantMotion::ZERO`]: super::dominant::DominantMotion::ZERO
+//!
+//! ```
+//! use kestrel::dense::dominant::{DominantMotion, FitParams};
+//! use kestrel::dense::grid::{grid_len, GridLayout, GridNode};
+//! use kestrel::dense::mask::mask_words;
+//! use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
+//! use kestrel::dense::regions::MotionBox;
+//! use kestrel::Point;
+//!
+//! // The camera pans 2 px left; a 3 x 2 block of nodes moves 3 px down besides.
+//! let layout = GridLayout::new(96, 64, 8).unwrap();
+//! let mut nodes = [GridNode::tracked(Point::from_f32(-2.0, 0.0)); grid_len(96, 64, 8)];
+//! for (col, row) in [(4, 3), (5, 3), (6, 3), (4, 4), (5, 4), (6, 4)] {
+//!     nodes[layout.index(col, row).unwrap()] = GridNode::tracked(Point::from_f32(-2.0, 3.0));
+//! }
+//! let camera = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap().motion;
+//!
+//! let detector = MotionDetector::new(MotionParams::default()).unwrap();
+//! let mut mask = [0u32; mask_words(96, 64, 8)];
+//! let mut scratch = [0u32; motion_scratch_len(96, 64, 8)];
+//! let mut boxes = [MotionBox::default(); 4];
+//! let found = detector
+//!     .detect(&layout, &nodes, &camera, &mut mask, &mut scratch, &mut boxes)
+//!     .unwrap();
+//! assert_eq!(found.boxes, 1);
+//! // The block's cells, inset by 4 px on every side.
+//! assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h), (36, 28, 16, 8));
+//! ```
+
+use super::grid::{grid_len, GridLayout, GridNode, NodeStatus};
+use super::mask::{close, count, mask_words, open, set, words_for, Structure};
+use super::regions::{find_boxes, BoxRules, MotionBox};
+use super::DenseError;
+
+/// The flow the camera's own motion gives each pixel.
+///
+/// Implemented by [`DominantMotion`](super::dominant::DominantMotion); implement it for another model (a homography, a
+/// gyro-predicted rotation) to use that model for the mask instead.
+///
+/// ```
+/// use kestrel::dense::motion::CameraMotion;
+/// struct Pan(f32);
+/// impl CameraMotion for Pan {
+///     fn predict(&self, _x: f32, _y: f32) -> (f32, f32) {
+///         (self.0, 0.0)
+///     }
+/// }
+/// assert_eq!(Pan(1.5).predict(10.0, 20.0), (1.5, 0.0));
+/// ```
+pub trait CameraMotion {
+    /// The flow, px, of the static scene at pixel (`x`, `y`) of the previous frame.
+    fn predict(&self, x: f32, y: f32) -> (f32, f32);
+}
+
+/// `u32` words of scratch [`MotionDetector::detect`] needs: a second mask for the morphology
+/// and the region search, and a flood-fill stack of one word per node.
+///
+/// ```
+/// use kestrel::dense::motion::motion_scratch_len;
+/// static mut SCRATCH: [u32; motion_scratch_len(160, 120, 8)] = [0; motion_scratch_len(160, 120, 8)];
+/// assert_eq!(motion_scratch_len(160, 120, 8), 10 + 300);
+/// ```
+pub const fn motion_scratch_len(width: usize, height: usize, cell: usize) -> usize {
+    mask_words(width, height, cell) + grid_len(width, height, cell)
+}
+
+/// Motion-detection parameters.
+///
+/// ```
+/// use kestrel::dense::motion::MotionParams;
+/// let p = MotionParams::default();
+/// assert_eq!((p.threshold, p.include_filled, p.close, p.open), (0.8, false, None, None));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionParams {
+    /// A node moves when its flow differs from the camera's by more than this, px. The
+    /// default, 0.8, sits well above the scatter of the static scene's flow (about 0.2 px) and
+    /// below the slowest motion worth reporting, a pixel per frame.
+    pub threshold: f32,
+    /// Whether filled nodes may move (their flow is their neighbours' median); measured nodes
+    /// always may. Off by default: a filled node beside an object takes the object's flow and
+    /// glues neighbouring regions together.
+    pub include_filled: bool,
+    /// Closing of the raw mask; `None` (the default) skips it. With 9 px windows on an 8 px
+    /// grid the raw mask already overhangs each object by about a node, so a 3 x 3 closing
+    /// merges objects less than about three cells apart.
+    pub close: Option<Structure>,
+    /// Opening after the closing; `None` (the default) skips it: a 3 x 3 opening removes every
+    /// region narrower than three nodes, which on an 8 px grid is every object under about
+    /// 24 px. [`BoxRules::min_nodes`] removes specks instead.
+    pub open: Option<Structure>,
+    /// Which regions give boxes, and how.
+    pub boxes: BoxRules,
+}
+
+impl Default for MotionParams {
+    fn default() -> Self {
+        Self {
+            threshold: 0.8,
+            include_filled: false,
+            close: None,
+            open: None,
+            boxes: BoxRules::default(),
+        }
+    }
+}
+
+/// What one [`MotionDetector::detect`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionSummary {
+    /// Nodes in the cleaned mask.
+    pub moving: usize,
+    /// Regions of at least [`BoxRules::min_nodes`] nodes.
+    pub regions: usize,
+    /// Boxes written (the largest regions, at most the output's length).
+    pub boxes: usize,
+}
+
+/// A validated motion detector.
+#[derive(Debug, Clone, Copy)]
+pub struct MotionDetector {
+    params: MotionParams,
+}
+
+impl MotionDetector {
+    /// Validates `params`.
+    ///
+    /// ```
+    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
+    /// use kestrel::dense::DenseError;
+    /// let bad = MotionParams { threshold: -1.0, ..MotionParams::default() };
+    /// assert_eq!(MotionDetector::new(bad).unwrap_err(), DenseError::BadThreshold);
+    /// ```
+    pub fn new(params: MotionParams) -> Result<Self, DenseError> {
+        if !params.threshold.is_finite() || params.threshold < 0.0 {
+            return Err(DenseError::BadThreshold);
+        }
+        Ok(Self { params })
+    }
+
+    /// The parameters this detector was built with.
+    ///
+    /// ```
+    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
+    /// let detector = MotionDetector::new(MotionParams::default()).unwrap();
+    /// assert_eq!(detector.params().threshold, 0.8);
+    /// ```
+    pub fn params(&self) -> &MotionParams {
+        &self.params
+    }
+
+    /// Writes the raw motion mask of `nodes` into `mask` ([`mask_words`] words) and returns the
+    /// number of moving nodes.
+    ///
+    /// ```
+    /// use kestrel::dense::dominant::DominantMotion;
+    /// use kestrel::dense::grid::{GridLayout, GridNode};
+    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
+    /// use kestrel::Point;
+    /// let layout = GridLayout::new(16, 8, 8).unwrap();
+    /// let nodes = [GridNode::tracked(Point::from_f32(0.5, 0.0)), GridNode::tracked(Point::from_f32(0.0, 1.5))];
+    /// let detector = MotionDetector::new(MotionParams::default()).unwrap();
+    /// let mut mask = [0u32];
+    /// assert_eq!(detector.mark(&layout, &nodes, &DominantMotion::ZERO, &mut mask), Ok(1));
+    /// assert_eq!(mask, [0b10]);
+    /// ```
+    pub fn mark(
+        &self,
+        layout: &GridLayout,
+        nodes: &[GridNode],
+        camera: &impl CameraMotion,
+        mask: &mut [u32],
+    ) -> Result<usize, DenseError> {
+        if mask.len() < words_for(layout.len()) {
+            return Err(DenseError::MaskTooShort);
+        }
+        if nodes.len() < layout.len() {
+            return Err(DenseError::NodesTooShort);
+        }
+        let limit = self.params.threshold * self.params.threshold;
+        let mut moving = 0;
+        for (index, node) in nodes.iter().take(layout.len()).enumerate() {
+            let moves = self.counts(node) && self.residual_sq(layout, index, node, camera) > limit;
+            set(mask, index, moves);
+            moving += usize::from(moves);
+        }
+        Ok(moving)
+    }
+
+    /// Marks the moving nodes, cleans the mask, and writes the boxes of its regions into
+    /// `boxes`, largest first. `mask` ([`mask_words`] words) holds the cleaned mask afterwards;
+    /// `scratch` is [`motion_scratch_len`] words. See the module example.
+    pub fn detect(
+        &self,
+        layout: &GridLayout,
+        nodes: &[GridNode],
+        camera: &impl CameraMotion,
+        mask: &mut [u32],
+        scratch: &mut [u32],
+        boxes: &mut [MotionBox],
+    ) -> Result<MotionSummary, DenseError> {
+        let words = words_for(layout.len());
+        if scratch.len() < words + layout.len() {
+            return Err(DenseError::MotionScratchTooShort);
+        }
+        let (temp, stack) = scratch.split_at_mut(words);
+        self.mark(layout, nodes, camera, mask)?;
+        if let Some(structure) = self.params.close {
+            close(layout, mask, temp, structure)?;
+        }
+        if let Some(structure) = self.params.open {
+            open(layout, mask, temp, structure)?;
+        }
+        let found = find_boxes(layout, nodes, mask, temp, stack, &self.params.boxes, boxes)?;
+        Ok(MotionSummary {
+            moving: count(mask, layout.len()),
+            regions: found.regions,
+            boxes: found.boxes,
+        })
+    }
+
+    /// Whether `node`'s flow takes part in the mask.
+    fn counts(&self, node: &GridNode) -> bool {
+        match node.status {
+            NodeStatus::Tracked => true,
+            NodeStatus::Filled => self.params.include_filled,
+            _ => false,
+        }
+    }
+
+    /// Squared distance between the node's flow and the camera's flow at its centre.
+    fn residual_sq(
+        &self,
+        layout: &GridLayout,
+        index: usize,
+        node: &GridNode,
+        camera: &impl CameraMotion,
+    ) -> f32 {
+        let (col, row) = layout.node(index);
+        let (x, y) = layout.centre(col, row);
+        let (cx, cy) = camera.predict(x as f32, y as f32);
+        let (dx, dy) = node.flow.to_f32();
+        let (rx, ry) = (dx - cx, dy - cy);
+        let r2 = rx * rx + ry * ry;
+        // A camera model that predicts NaN says nothing: the node does not move.
+        if r2.is_nan() {
+            0.0
+        } else {
+            r2
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dense::dominant::DominantMotion;
+    use crate::q16::Point;
+
+    #[test]
+    fn short_buffers_are_errors() {
+        let layout = GridLayout::new(64, 64, 8).unwrap();
+        let nodes = [GridNode::EMPTY; 64];
+        let detector = MotionDetector::new(MotionParams::default()).unwrap();
+        let camera = DominantMotion::ZERO;
+        let mut boxes = [MotionBox::default(); 2];
+        let mut scratch = [0u32; motion_scratch_len(64, 64, 8)];
+        assert_eq!(
+            detector.detect(
+                &layout,
+                &nodes,
+                &camera,
+                &mut [0; 1],
+                &mut scratch,
+                &mut boxes
+            ),
+            Err(DenseError::MaskTooShort)
+        );
+        assert_eq!(
+            detector.detect(
+                &layout,
+                &nodes,
+                &camera,
+                &mut [0; 2],
+                &mut scratch[..65],
+                &mut boxes
+            ),
+            Err(DenseError::MotionScratchTooShort)
+        );
+        assert_eq!(
+            detector.detect(
+                &layout,
+                &nodes[..63],
+                &camera,
+                &mut [0; 2],
+                &mut scratch,
+                &mut boxes
+            ),
+            Err(DenseError::NodesTooShort)
+        );
+    }
+
+    #[test]
+    fn invalid_nodes_never_move_and_filled_ones_only_when_asked() {
+        let layout = GridLayout::new(24, 8, 8).unwrap();
+        let fast = Point::from_f32(5.0, 0.0);
+        let nodes = [
+            GridNode {
+                flow: fast,
+                status: NodeStatus::Filled,
+                fill_pass: 1,
+            },
+            GridNode {
+                flow: fast,
+                status: NodeStatus::Residual,
+                fill_pass: 0,
+            },
+            GridNode::tracked(fast),
+        ];
+        let camera = DominantMotion::ZERO;
+        let mut mask = [0u32];
+        let without = MotionDetector::new(MotionParams::default()).unwrap();
+        assert_eq!(without.mark(&layout, &nodes, &camera, &mut mask), Ok(1));
+        assert_eq!(mask, [0b100]);
+        let with = MotionDetector::new(MotionParams {
+            include_filled: true,
+            ..MotionParams::default()
+        })
+        .unwrap();
+        assert_eq!(with.mark(&layout, &nodes, &camera, &mut mask), Ok(2));
+        assert_eq!(mask, [0b101]);
+    }
+
+    #[test]
+    fn a_nan_camera_marks_nothing() {
+        struct Broken;
+        impl CameraMotion for Broken {
+            fn predict(&self, _: f32, _: f32) -> (f32, f32) {
+                (f32::NAN, 0.0)
+            }
+        }
+        let layout = GridLayout::new(16, 8, 8).unwrap();
+        let nodes = [GridNode::tracked(Point::from_f32(9.0, 9.0)); 2];
+        let detector = MotionDetector::new(MotionParams::default()).unwrap();
+        assert_eq!(detector.mark(&layout, &nodes, &Broken, &mut [0]), Ok(0));
+    }
+}

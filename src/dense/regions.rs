@@ -1,0 +1,436 @@
+//! Connected regions of a node mask, as bounding boxes in pixels.
+//!
+//! Regions are 8-connected (a small object moving diagonally across a coarse grid often touches
+//! its next node only at a corner). Each is found by a flood fill whose stack is a caller-owned
+//! slice of one `u32` per node: a node is pushed at most once, since it leaves the `unvisited`
+//! set as it is pushed.
+//!
+//! A region's box is its nodes' cells, clipped to the frame and inset on every side: a node
+//! whose LK window reaches into a moving object picks up the object's motion, so the cells of a
+//! region overhang the object by about half a window.
+
+use super::grid::{GridLayout, GridNode, NEIGHBOURS};
+use super::mask::{contains, set, words_for};
+use super::DenseError;
+use crate::q16::{Point, Q16};
+
+/// A moving region: the pixels its nodes' cells cover in the previous frame, and its flow.
+///
+/// ```
+/// use kestrel::dense::regions::MotionBox;
+/// use kestrel::Point;
+/// let b = MotionBox { x: 16, y: 8, w: 24, h: 16, nodes: 6, mean_flow: Point::from_f32(2.6, -1.0) };
+/// assert_eq!(b.area(), 384);
+/// let moved = b.in_next_frame(160, 120);
+/// assert_eq!((moved.x, moved.y, moved.w, moved.h), (19, 7, 24, 16));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionBox {
+    /// Leftmost column, px.
+    pub x: u16,
+    /// Top row, px.
+    pub y: u16,
+    /// Width, px.
+    pub w: u16,
+    /// Height, px.
+    pub h: u16,
+    /// Nodes in the region.
+    pub nodes: u32,
+    /// Mean flow of the region's nodes that have one (measured or filled), px: the region's
+    /// own motion plus the camera's.
+    pub mean_flow: Point,
+}
+
+impl MotionBox {
+    /// Area in pixels.
+    ///
+    /// ```
+    /// # use kestrel::dense::regions::MotionBox;
+    /// assert_eq!(MotionBox { w: 3, h: 5, ..MotionBox::default() }.area(), 15);
+    /// ```
+    pub fn area(&self) -> u32 {
+        u32::from(self.w) * u32::from(self.h)
+    }
+
+    /// The box moved by its mean flow (rounded to whole pixels) and clipped to a `width` x
+    /// `height` frame: where the region is in the next frame.
+    ///
+    /// ```
+    /// # use kestrel::dense::regions::MotionBox;
+    /// # use kestrel::Point;
+    /// let b = MotionBox { x: 0, y: 0, w: 8, h: 8, nodes: 1, mean_flow: Point::from_f32(-3.0, 0.0) };
+    /// let moved = b.in_next_frame(64, 64);
+    /// assert_eq!((moved.x, moved.w), (0, 5));
+    /// ```
+    pub fn in_next_frame(&self, width: usize, height: usize) -> MotionBox {
+        let (x, w) = shift_span(self.x, self.w, self.mean_flow.x, width);
+        let (y, h) = shift_span(self.y, self.h, self.mean_flow.y, height);
+        MotionBox {
+            x,
+            y,
+            w,
+            h,
+            ..*self
+        }
+    }
+}
+
+/// `start..start + len` moved by `shift` rounded, clipped to `0..size`.
+fn shift_span(start: u16, len: u16, shift: Q16, size: usize) -> (u16, u16) {
+    let shift = shift.saturating_round().to_num::<i32>();
+    let size = i32::try_from(size).unwrap_or(i32::MAX);
+    let lo = (i32::from(start) + shift).clamp(0, size);
+    let hi = (i32::from(start) + i32::from(len) + shift).clamp(lo, size);
+    (to_u16(lo), to_u16(hi - lo))
+}
+
+fn to_u16(v: impl TryInto<u16>) -> u16 {
+    v.try_into().unwrap_or(u16::MAX)
+}
+
+/// How many regions a search found and how many boxes it wrote.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RegionCount {
+    /// Regions of at least the minimum size.
+    pub regions: usize,
+    /// Boxes written: the largest regions, at most the output's length.
+    pub boxes: usize,
+}
+
+/// Which regions give boxes, and how boxes are drawn around them.
+///
+/// ```
+/// use kestrel::dense::regions::BoxRules;
+/// assert_eq!(BoxRules::default(), BoxRules { min_nodes: 3, inset: 4 });
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoxRules {
+    /// Area floor: regions with fewer nodes give no box. Three by default: with 9 px windows
+    /// on an 8 px grid, an object of 10 px already moves a 2 x 2 block of nodes, while one or
+    /// two nodes alone are more often wrong LK estimates than objects.
+    pub min_nodes: u32,
+    /// Pixels removed from each side of a region's cells, keeping at least one cell per side;
+    /// about half the LK window (4 for the dense default of 9 px). A region one node wide can
+    /// hold an object from a few pixels to a cell and a window wide, so it keeps its cell.
+    pub inset: usize,
+}
+
+impl Default for BoxRules {
+    fn default() -> Self {
+        Self {
+            min_nodes: 3,
+            inset: 4,
+        }
+    }
+}
+
+/// Finds the 8-connected regions of `mask` with at least `rules.min_nodes` nodes and writes
+/// their boxes into `boxes`, largest first (equal sizes in the raster order of their first
+/// node). When there are more regions than boxes, the largest are kept.
+///
+/// `unvisited` is a mask's worth of scratch, `stack` one `u32` per node ([`GridLayout::len`]).
+///
+/// ```
+/// use kestrel::dense::grid::{GridLayout, GridNode};
+/// use kestrel::dense::regions::{find_boxes, BoxRules, MotionBox};
+/// use kestrel::Point;
+///
+/// // A 4 x 4 grid of 8 px cells: an L of three nodes, and one lone node.
+/// let layout = GridLayout::new(32, 32, 8).unwrap();
+/// let nodes = [GridNode::tracked(Point::from_f32(1.0, 0.0)); 16];
+/// let mask = [0b1000_0000_0001_0011];
+/// let mut boxes = [MotionBox::default(); 4];
+/// let rules = BoxRules { min_nodes: 2, inset: 2 };
+/// let found = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 16], &rules, &mut boxes).unwrap();
+/// assert_eq!((found.regions, found.boxes), (1, 1));
+/// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h, boxes[0].nodes), (2, 2, 12, 12, 3));
+/// ```
+pub fn find_boxes(
+    layout: &GridLayout,
+    nodes: &[GridNode],
+    mask: &[u32],
+    unvisited: &mut [u32],
+    stack: &mut [u32],
+    rules: &BoxRules,
+    boxes: &mut [MotionBox],
+) -> Result<RegionCount, DenseError> {
+    let words = words_for(layout.len());
+    if mask.len() < words {
+        return Err(DenseError::MaskTooShort);
+    }
+    if unvisited.len() < words || stack.len() < layout.len() {
+        return Err(DenseError::MotionScratchTooShort);
+    }
+    if let (Some(to), Some(from)) = (unvisited.get_mut(..words), mask.get(..words)) {
+        to.copy_from_slice(from);
+    }
+    let mut found = RegionCount::default();
+    for seed in 0..layout.len() {
+        if !contains(unvisited, seed) {
+            continue;
+        }
+        let region = flood(layout, nodes, unvisited, stack, seed);
+        if region.nodes >= rules.min_nodes {
+            found.regions += 1;
+            let found_box = region.to_box(layout, rules.inset);
+            found.boxes = keep_largest(boxes, found.boxes, found_box);
+        }
+    }
+    Ok(found)
+}
+
+/// What a flood fill gathers about one region.
+struct Region {
+    cols: (usize, usize),
+    rows: (usize, usize),
+    nodes: u32,
+    flow_sum: (i64, i64),
+    flows: i64,
+}
+
+impl Region {
+    fn new(col: usize, row: usize) -> Self {
+        Self {
+            cols: (col, col),
+            rows: (row, row),
+            nodes: 0,
+            flow_sum: (0, 0),
+            flows: 0,
+        }
+    }
+
+    fn add(&mut self, col: usize, row: usize, node: Option<&GridNode>) {
+        self.cols = (self.cols.0.min(col), self.cols.1.max(col));
+        self.rows = (self.rows.0.min(row), self.rows.1.max(row));
+        self.nodes = self.nodes.saturating_add(1);
+        if let Some(n) = node.filter(|n| n.has_flow()) {
+            self.flow_sum.0 += i64::from(n.flow.x.to_bits());
+            self.flow_sum.1 += i64::from(n.flow.y.to_bits());
+            self.flows += 1;
+        }
+    }
+
+    fn to_box(&self, layout: &GridLayout, inset: usize) -> MotionBox {
+        let (x, y, w, h) = layout.span_rect(self.cols.0, self.rows.0, self.cols.1, self.rows.1);
+        let (x, w) = inset_span(x, w, inset, layout.cell());
+        let (y, h) = inset_span(y, h, inset, layout.cell());
+        // A mean of Q16 values is within their range.
+        let mean = |sum: i64| Q16::from_bits((sum / self.flows.max(1)) as i32);
+        MotionBox {
+            x: to_u16(x),
+            y: to_u16(y),
+            w: to_u16(w),
+            h: to_u16(h),
+            nodes: self.nodes,
+            mean_flow: Point::new(mean(self.flow_sum.0), mean(self.flow_sum.1)),
+        }
+    }
+}
+
+/// `start..start + len` with up to `inset` removed from each end, keeping at least `keep`.
+///
+/// The frame's edges are inset too: an object cut by the edge then loses up to `inset` px of
+/// its box, but one that merely comes near the edge (and so moves the edge node) does not gain
+/// a whole cell.
+fn inset_span(start: usize, len: usize, inset: usize, keep: usize) -> (usize, usize) {
+    let cut = inset.min(len.saturating_sub(keep) / 2);
+    (start + cut, len - 2 * cut)
+}
+
+/// Flood-fills the region of `seed` out of `unvisited`.
+fn flood(
+    layout: &GridLayout,
+    nodes: &[GridNode],
+    unvisited: &mut [u32],
+    stack: &mut [u32],
+    seed: usize,
+) -> Region {
+    let (col, row) = layout.node(seed);
+    let mut region = Region::new(col, row);
+    let mut top = 0;
+    push(unvisited, stack, &mut top, seed);
+    while top > 0 {
+        top -= 1;
+        let Some(index) = stack.get(top).map(|&i| i as usize) else {
+            break;
+        };
+        let (col, row) = layout.node(index);
+        region.add(col, row, nodes.get(index));
+        for offset in NEIGHBOURS {
+            let next = layout.neighbour(index, offset);
+            if let Some(next) = next.filter(|&n| contains(unvisited, n)) {
+                push(unvisited, stack, &mut top, next);
+            }
+        }
+    }
+    region
+}
+
+/// Pushes `index` and removes it from `unvisited`, so no node is pushed twice and the stack
+/// never needs more than one slot per node.
+fn push(unvisited: &mut [u32], stack: &mut [u32], top: &mut usize, index: usize) {
+    set(unvisited, index, false);
+    if let Some(slot) = stack.get_mut(*top) {
+        // Node indices are below the grid's length, itself far below 2^32 for 4096 px frames.
+        *slot = index as u32;
+        *top += 1;
+    }
+}
+
+/// Inserts `new` into the first `len` boxes, kept sorted largest first (after the boxes of the
+/// same size already there); drops the smallest when full. Returns the new length.
+fn keep_largest(boxes: &mut [MotionBox], len: usize, new: MotionBox) -> usize {
+    let len = len.min(boxes.len());
+    let at = boxes
+        .get(..len)
+        .map_or(0, |kept| kept.partition_point(|b| b.nodes >= new.nodes));
+    let grown = (len + 1).min(boxes.len());
+    // Empty when the new box is smaller than every kept one and there is no room left.
+    if let Some(tail) = boxes.get_mut(at..grown).filter(|t| !t.is_empty()) {
+        tail.rotate_right(1);
+        if let Some(slot) = tail.first_mut() {
+            *slot = new;
+        }
+    }
+    grown
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sized(nodes: u32) -> MotionBox {
+        MotionBox {
+            nodes,
+            ..MotionBox::default()
+        }
+    }
+
+    #[test]
+    fn the_largest_boxes_are_kept_in_order() {
+        let mut boxes = [MotionBox::default(); 3];
+        let mut len = 0;
+        for n in [2, 5, 3, 5, 1, 9] {
+            len = keep_largest(&mut boxes, len, sized(n));
+        }
+        assert_eq!(len, 3);
+        assert_eq!(boxes.map(|b| b.nodes), [9, 5, 5]);
+        assert_eq!(keep_largest(&mut [], 0, sized(1)), 0);
+    }
+
+    #[test]
+    fn diagonal_nodes_join_and_the_flow_is_averaged() {
+        // 4 x 3 grid: nodes 0 and 5 touch at a corner; node 11 is alone.
+        let layout = GridLayout::new(32, 24, 8).unwrap();
+        let mut nodes = [GridNode::EMPTY; 12];
+        nodes[0] = GridNode::tracked(Point::from_f32(1.0, 2.0));
+        nodes[5] = GridNode::tracked(Point::from_f32(3.0, 0.0));
+        let mask = [1 | 1 << 5 | 1 << 11];
+        let mut boxes = [MotionBox::default(); 2];
+        let rules = BoxRules {
+            min_nodes: 1,
+            inset: 0,
+        };
+        let found = find_boxes(
+            &layout,
+            &nodes,
+            &mask,
+            &mut [0],
+            &mut [0; 12],
+            &rules,
+            &mut boxes,
+        );
+        assert_eq!(
+            found,
+            Ok(RegionCount {
+                regions: 2,
+                boxes: 2
+            })
+        );
+        assert_eq!((boxes[0].w, boxes[0].h, boxes[0].nodes), (16, 16, 2));
+        // With an inset, the one-node region keeps its whole cell.
+        let rules = BoxRules {
+            min_nodes: 1,
+            inset: 4,
+        };
+        find_boxes(
+            &layout,
+            &nodes,
+            &mask,
+            &mut [0],
+            &mut [0; 12],
+            &rules,
+            &mut boxes,
+        )
+        .unwrap();
+        assert_eq!(
+            (boxes[0].x, boxes[0].w, boxes[1].x, boxes[1].w),
+            (4, 8, 24, 8)
+        );
+        assert_eq!(boxes[0].mean_flow.to_f32(), (2.0, 1.0));
+        // The lone node has no flow: its mean is zero.
+        assert_eq!((boxes[1].x, boxes[1].y, boxes[1].nodes), (24, 16, 1));
+        assert_eq!(boxes[1].mean_flow, Point::default());
+    }
+
+    #[test]
+    fn short_buffers_are_refused() {
+        let layout = GridLayout::new(64, 64, 8).unwrap(); // 64 nodes: 2 words
+        let nodes = [GridNode::EMPTY; 64];
+        let run = |mask: &[u32], unvisited_len: usize, stack_len: usize, boxes_len: usize| {
+            let mut boxes = [MotionBox::default(); 2];
+            let (mut unvisited, mut stack) = ([0u32; 2], [0u32; 64]);
+            find_boxes(
+                &layout,
+                &nodes,
+                mask,
+                &mut unvisited[..unvisited_len],
+                &mut stack[..stack_len],
+                &BoxRules::default(),
+                &mut boxes[..boxes_len],
+            )
+        };
+        assert_eq!(run(&[0], 2, 64, 1), Err(DenseError::MaskTooShort));
+        assert_eq!(
+            run(&[0; 2], 1, 64, 1),
+            Err(DenseError::MotionScratchTooShort)
+        );
+        assert_eq!(
+            run(&[0; 2], 2, 63, 1),
+            Err(DenseError::MotionScratchTooShort)
+        );
+        // No room for boxes is not an error: the regions are still counted.
+        assert_eq!(
+            run(&[u32::MAX; 2], 2, 64, 0),
+            Ok(RegionCount {
+                regions: 1,
+                boxes: 0
+            })
+        );
+    }
+
+    #[test]
+    fn insets_keep_the_minimum() {
+        assert_eq!(inset_span(8, 24, 4, 4), (12, 16));
+        assert_eq!(inset_span(0, 16, 4, 4), (4, 8));
+        assert_eq!(inset_span(8, 8, 4, 4), (10, 4));
+        assert_eq!(inset_span(60, 3, 4, 4), (60, 3));
+    }
+
+    #[test]
+    fn moving_a_box_clips_it_to_the_frame() {
+        let b = MotionBox {
+            x: 150,
+            y: 2,
+            w: 10,
+            h: 10,
+            nodes: 1,
+            mean_flow: Point::from_f32(5.4, -4.6),
+        };
+        let moved = b.in_next_frame(160, 120);
+        assert_eq!((moved.x, moved.y, moved.w, moved.h), (155, 0, 5, 7));
+    }
+}

@@ -5,6 +5,7 @@
 //! and returns its lines of the summary. A new mode of the library becomes a new entry in
 //! [`SECTIONS`].
 
+mod motion;
 mod tracks;
 
 use std::fmt::Write as _;
@@ -46,11 +47,18 @@ pub struct Section {
 }
 
 /// The sections, in the order they run.
-pub const SECTIONS: &[Section] = &[Section {
-    name: "tracks",
-    title: "KLT tracks (up to 100)",
-    run: tracks::run,
-}];
+pub const SECTIONS: &[Section] = &[
+    Section {
+        name: "tracks",
+        title: "KLT tracks (up to 100)",
+        run: tracks::run,
+    },
+    Section {
+        name: "motion",
+        title: "Dense grid flow and moving-object boxes (8 px cells)",
+        run: motion::run,
+    },
+];
 
 /// Frame size of the built-in sequence.
 const WIDTH: usize = 320;

@@ -350,6 +350,8 @@ fn demo_writes_its_pictures_and_prints_a_summary() {
         "live tracks per frame",
         "survival",
         "error against the ground truth",
+        "grid flow",
+        "moving box found",
     ] {
         assert!(summary.contains(needed), "{needed}");
     }
@@ -357,7 +359,11 @@ fn demo_writes_its_pictures_and_prints_a_summary() {
         fs::read_to_string(out.join("summary.txt")).unwrap(),
         summary
     );
-    assert_eq!(entries(&out), ["summary.txt", "tracks"]);
+    assert_eq!(entries(&out), ["motion", "summary.txt", "tracks"]);
+    assert_eq!(entries(&out.join("motion")), ["boxes", "flow.png"]);
+    assert_eq!(entries(&out.join("motion/boxes")).len(), 11);
+    let flow = image::open(out.join("motion/flow.png")).unwrap();
+    assert_eq!((flow.width(), flow.height()), (320, 240));
     assert_eq!(
         entries(&out.join("tracks")),
         ["contact_sheet.png", "tracks.csv", "trails"]

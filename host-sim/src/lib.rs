@@ -3,8 +3,10 @@
 
 pub mod cli;
 pub mod commands;
+pub mod egomotion;
 pub mod frame;
 pub mod io;
+pub mod progress;
 pub mod reference;
 pub mod synth;
 

@@ -2,8 +2,10 @@
 //! contract (one line on stderr, exit status 1 for bad input, 2 for a bad command line).
 
 pub mod args;
+pub mod egomotion;
 pub mod flow;
 pub mod synth;
+pub mod synth_sequence;
 
 use std::ffi::OsString;
 use std::fmt::Display;
@@ -26,8 +28,11 @@ host-sim: the Kestrel host simulator. Runs the library on recorded frames and wr
 Usage: host-sim <COMMAND> [options]
 
 Commands:
-  flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
-  synth     write seeded synthetic frame pairs with exact ground truth
+  flow       track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  egomotion  the camera's motion between consecutive frames, and OPTICAL_FLOW_RAD for the autopilot
+  synth      write seeded synthetic frame pairs with exact ground truth
+  synth-sequence
+             write a seeded synthetic flight with exact homographies and gyro
 
 Options:
   -h, --help       print this help; 'host-sim <COMMAND> --help' describes a command
@@ -54,7 +59,9 @@ enum Request {
     /// Print the version to stdout.
     Version,
     Flow(commands::flow::FlowOptions),
+    Egomotion(commands::egomotion::EgomotionOptions),
     Synth(commands::synth::SynthOptions),
+    SynthSequence(commands::synth_sequence::SynthSequenceOptions),
 }
 
 /// Runs `host-sim` with `args` (the program name first, as from [`std::env::args_os`]) and
@@ -88,9 +95,17 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Flow(options),
             None => Request::Print(flow::USAGE),
         }),
+        "egomotion" => Ok(match egomotion::parse_options(rest)? {
+            Some(options) => Request::Egomotion(options),
+            None => Request::Print(egomotion::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
+        }),
+        "synth-sequence" => Ok(match synth_sequence::parse_options(rest)? {
+            Some(options) => Request::SynthSequence(options),
+            None => Request::Print(synth_sequence::USAGE),
         }),
         other if other.starts_with('-') => Err(UsageError::new(
             other,
@@ -114,7 +129,9 @@ fn execute(request: Request) -> Result<(), CommandError> {
             Ok(())
         }
         Request::Flow(options) => commands::flow::run(&options),
+        Request::Egomotion(options) => commands::egomotion::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
+        Request::SynthSequence(options) => commands::synth_sequence::run(&options),
     }
 }
 

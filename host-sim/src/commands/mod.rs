@@ -1,7 +1,9 @@
 //! The commands host-sim runs, given already validated options.
 
+pub mod egomotion;
 pub mod flow;
 pub mod synth;
+pub mod synth_sequence;
 
 use std::fmt;
 

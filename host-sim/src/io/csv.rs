@@ -190,6 +190,11 @@ impl<W: Write> CsvWriter<W> {
         self.out.write_all(b"\n")
     }
 
+    /// The underlying writer, borrowed.
+    pub fn get_ref(&self) -> &W {
+        &self.out
+    }
+
     /// The underlying writer, for committing or flushing.
     pub fn into_inner(self) -> W {
         self.out

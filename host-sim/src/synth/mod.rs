@@ -16,7 +16,9 @@
 //! assert_eq!(truth.len(), points.len());
 //! ```
 
+mod flight;
 mod homography;
+mod objects;
 mod points;
 mod render;
 mod rng;
@@ -24,7 +26,9 @@ mod scene;
 mod sequence;
 mod texture;
 
+pub use flight::{Flight, FlightPath, FlightSequence, OBJECT_SHARE};
 pub use homography::Homography;
+pub use objects::MovingObject;
 pub use points::{grid_points, textured_points};
 pub use render::{area_sample, Exposure, Lighting};
 pub use rng::{lattice, mix, SplitMix64};

@@ -8,6 +8,7 @@ pub mod frame;
 pub mod io;
 pub mod progress;
 pub mod reference;
+pub mod stabilize;
 pub mod synth;
 
 pub use frame::Frame;

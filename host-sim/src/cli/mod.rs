@@ -4,6 +4,7 @@
 pub mod args;
 pub mod egomotion;
 pub mod flow;
+pub mod stabilize;
 pub mod synth;
 pub mod synth_sequence;
 
@@ -30,6 +31,7 @@ Usage: host-sim <COMMAND> [options]
 Commands:
   flow       track points from one frame to the next (sparse pyramidal Lucas-Kanade)
   egomotion  the camera's motion between consecutive frames, and OPTICAL_FLOW_RAD for the autopilot
+  stabilize  write camera-motion-compensated frames (video stabilization)
   synth      write seeded synthetic frame pairs with exact ground truth
   synth-sequence
              write a seeded synthetic flight with exact homographies and gyro
@@ -60,6 +62,7 @@ enum Request {
     Version,
     Flow(commands::flow::FlowOptions),
     Egomotion(commands::egomotion::EgomotionOptions),
+    Stabilize(commands::stabilize::StabilizeOptions),
     Synth(commands::synth::SynthOptions),
     SynthSequence(commands::synth_sequence::SynthSequenceOptions),
 }
@@ -99,6 +102,10 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Egomotion(options),
             None => Request::Print(egomotion::USAGE),
         }),
+        "stabilize" => Ok(match stabilize::parse_options(rest)? {
+            Some(options) => Request::Stabilize(options),
+            None => Request::Print(stabilize::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
@@ -130,6 +137,7 @@ fn execute(request: Request) -> Result<(), CommandError> {
         }
         Request::Flow(options) => commands::flow::run(&options),
         Request::Egomotion(options) => commands::egomotion::run(&options),
+        Request::Stabilize(options) => commands::stabilize::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
         Request::SynthSequence(options) => commands::synth_sequence::run(&options),
     }

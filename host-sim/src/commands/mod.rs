@@ -2,6 +2,7 @@
 
 pub mod egomotion;
 pub mod flow;
+pub mod stabilize;
 pub mod synth;
 pub mod synth_sequence;
 

@@ -164,24 +164,26 @@ fn egomotion_on_flight(
     rows
 }
 
-/// Median corner error of the rows against the flight's exact motion.
-fn median_corner_error(rows: &[EgoRow], sequence: &FlightSequence, size: (usize, usize)) -> f64 {
-    let errors = rows
-        .iter()
+/// The corner error of every row against the flight's exact motion.
+fn corner_errors(rows: &[EgoRow], sequence: &FlightSequence, size: (usize, usize)) -> Vec<f64> {
+    rows.iter()
         .enumerate()
         .map(|(i, row)| {
             assert_eq!(row.frame, i + 1);
             let truth = sequence.flight().pair_homography(row.frame);
             corner_error(&row.h, &truth, size.0, size.1)
         })
-        .collect();
-    median(errors)
+        .collect()
 }
 
+/// Per path, the median corner error over its frame pairs must be within half a pixel; over
+/// all pairs of the four paths, within the budget for the library's fit on synthetic
+/// tracks (0.2 px at 160x120, 0.1 px at 320x240), here with real frames, detection and LK.
 #[test]
 fn homographies_move_the_corners_within_half_a_pixel() {
     let mut report = String::from("egomotion, corner error against the exact motion:");
-    for (width, height) in [(160, 120), (320, 240)] {
+    for (width, height, budget) in [(160, 120, 0.2), (320, 240, 0.1)] {
+        let mut all_pairs = Vec::new();
         for path in [
             FlightPath::Pan,
             FlightPath::Yaw,
@@ -193,7 +195,9 @@ fn homographies_move_the_corners_within_half_a_pixel() {
             // Two independently moving objects: 20-30% of the tracks are outliers.
             let sequence = FlightSequence::new(spec, path, 2);
             let rows = egomotion_on_flight(&scratch, &sequence, 8, &[]);
-            let error = median_corner_error(&rows, &sequence, (width, height));
+            let errors = corner_errors(&rows, &sequence, (width, height));
+            let error = median(errors.clone());
+            all_pairs.extend(errors);
             let inliers: usize = rows.iter().map(|r| r.inliers).sum();
             report += &format!(
                 "\n  {width}x{height} {:<12} median {error:.3} px, quality {}..{}, {} inliers per pair",
@@ -205,6 +209,9 @@ fn homographies_move_the_corners_within_half_a_pixel() {
             assert!(error < 0.5, "{path:?} at {width}x{height}: {error:.3} px");
             assert!(rows.iter().all(|r| r.quality > 0 && r.status == "ok"));
         }
+        let pooled = median(all_pairs);
+        report += &format!("\n  {width}x{height} all paths: median {pooled:.3} px");
+        assert!(pooled < budget, "{width}x{height}: {pooled:.3} px");
     }
     println!("{report}");
 }

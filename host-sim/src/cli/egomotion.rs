@@ -7,7 +7,7 @@ use kestrel::ego::ModelKind;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
 use crate::commands::egomotion::EgomotionOptions;
-use crate::egomotion::{EstimatorSettings, DEFAULT_MAX_POINTS};
+use crate::egomotion::{EstimatorSettings, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD};
 
 /// The usage text of `host-sim egomotion --help`.
 pub const USAGE: &str = "\
@@ -37,6 +37,8 @@ Options:
                     back as raw bytes; system 1, component 100, sequence from 0
   --fps F           frame rate, 1 to 10000 [default: the y4m header's, else 30]
   --max-points N    points tracked per pair, 8 to 2000 [default: 200]
+  --threshold PX    RANSAC inlier threshold, 0.05 to 100 px; raise it for blurred or noisy
+                    video [default: 0.5]
   --stats S.json    write {\"frames\", \"pairs\", \"mean_tracked_points\",
                     \"median_pair_seconds\", \"mean_pair_seconds\"}; per pair the new frame's
                     pyramid, detection, tracking and the fit are timed, decoding is not
@@ -46,7 +48,7 @@ ego.csv columns:
   frame            the later frame of the pair (1, 2, ...)
   h11..h33         the homography from pixels of frame-1 to pixels of frame, row-major,
                    h33 = 1; the identity when the fit failed
-  inliers          tracked points within 1 px of the model (0 when the fit failed)
+  inliers          tracked points within --threshold of the model (0 when the fit failed)
   quality          0..255 as in OPTICAL_FLOW_RAD: 0 when the fit failed or the gyro reading
                    was unusable (then the fitted homography is still given)
   tracked          points tracked from frame-1 to frame, fitted by RANSAC
@@ -69,6 +71,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--mavlink"),
     Flag::value("--fps"),
     Flag::value("--max-points"),
+    Flag::value("--threshold"),
     Flag::value("--stats"),
 ];
 
@@ -79,6 +82,10 @@ const FOCAL: Rule<f64> = Rule {
 pub(crate) const FPS: Rule<f64> = Rule {
     accepts: |f| (1.0..=10_000.0).contains(&f),
     says: "must be between 1 and 10000 frames per second",
+};
+pub(crate) const THRESHOLD: Rule<f64> = Rule {
+    accepts: |t| (0.05..=100.0).contains(&t),
+    says: "must be between 0.05 and 100 px",
 };
 pub(crate) const MAX_POINTS: Rule<i64> = Rule {
     accepts: |n| (8..=2000).contains(&n),
@@ -103,8 +110,7 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
     let settings = EstimatorSettings {
         model: model(matches, ModelKind::Homography)?,
         focal,
-        max_points: matches.integer("--max-points", DEFAULT_MAX_POINTS as i64, MAX_POINTS)?
-            as usize,
+        ..measurement(matches)?
     };
     Ok(EgomotionOptions {
         input,
@@ -114,6 +120,18 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
         mavlink: matches.path("--mavlink"),
         fps: optional_fps(matches)?,
         stats: matches.path("--stats"),
+    })
+}
+
+/// The settings `egomotion` and `stabilize` share: `--max-points` and `--threshold`.
+pub(crate) fn measurement(matches: &Matches) -> Result<EstimatorSettings, UsageError> {
+    // Range-checked by their rules.
+    let max_points = matches.integer("--max-points", DEFAULT_MAX_POINTS as i64, MAX_POINTS)?;
+    let threshold = matches.number("--threshold", f64::from(DEFAULT_THRESHOLD), THRESHOLD)?;
+    Ok(EstimatorSettings {
+        max_points: max_points as usize,
+        threshold: threshold as f32,
+        ..EstimatorSettings::default()
     })
 }
 
@@ -180,7 +198,7 @@ mod tests {
     #[test]
     fn every_option_is_read() {
         let line = "- --out e.csv --model affine --focal 200.5 --gyro g.csv --mavlink m.bin \
-                    --fps 60 --max-points 50 --stats s.json";
+                    --fps 60 --max-points 50 --threshold 0.8 --stats s.json";
         let options = parsed(line).unwrap().unwrap();
         assert_eq!(options.input, OsString::from("-"));
         assert_eq!(
@@ -188,7 +206,8 @@ mod tests {
             EstimatorSettings {
                 model: ModelKind::Affine,
                 focal: Some(200.5),
-                max_points: 50
+                max_points: 50,
+                threshold: 0.8,
             }
         );
         assert_eq!(options.fps, Some(60.0));
@@ -215,6 +234,7 @@ mod tests {
         );
         assert!(error("d --out e.csv --fps 0").starts_with("--fps: must be between 1"));
         assert!(error("d --out e.csv --max-points 3").starts_with("--max-points: must be"));
+        assert!(error("d --out e.csv --threshold 0").starts_with("--threshold: must be"));
         assert!(error("--out e.csv").starts_with("INPUT: is required"));
         assert!(error("d").starts_with("--out: is required"));
         assert!(error("a b --out e.csv").starts_with("'b': unexpected argument"));

@@ -5,9 +5,9 @@ use std::ffi::OsString;
 use kestrel::ego::ModelKind;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
-use super::egomotion::{model, required_input, MAX_POINTS};
+use super::egomotion::{measurement, model, required_input};
 use crate::commands::stabilize::{StabilizeOptions, DEFAULT_SMOOTHING};
-use crate::egomotion::{EstimatorSettings, DEFAULT_MAX_POINTS};
+use crate::egomotion::EstimatorSettings;
 
 /// The usage text of `host-sim stabilize --help`.
 pub const USAGE: &str = "\
@@ -33,6 +33,7 @@ Options:
                     near the ends of the sequence the window shrinks to stay centred
                     [default: 15]
   --max-points N    points tracked per pair, 8 to 2000 [default: 200]
+  --threshold PX    RANSAC inlier threshold, 0.05 to 100 px [default: 0.5]
   -h, --help        print this help
 
 At most N + 1 frames are held in memory. A bad frame stops the run; the frames before it are
@@ -47,6 +48,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--model"),
     Flag::value("--smoothing"),
     Flag::value("--max-points"),
+    Flag::value("--threshold"),
 ];
 
 const SMOOTHING: Rule<i64> = Rule {
@@ -67,9 +69,7 @@ fn options(matches: &Matches) -> Result<StabilizeOptions, UsageError> {
     let out = matches.required_path("--out")?;
     let settings = EstimatorSettings {
         model: model(matches, ModelKind::Similarity)?,
-        focal: None,
-        max_points: matches.integer("--max-points", DEFAULT_MAX_POINTS as i64, MAX_POINTS)?
-            as usize,
+        ..measurement(matches)?
     };
     // Range-checked by its rule.
     let smoothing = matches.integer("--smoothing", DEFAULT_SMOOTHING as i64, SMOOTHING)? as usize;

@@ -18,6 +18,11 @@ use crate::Frame;
 /// Points tracked per frame pair unless told otherwise.
 pub const DEFAULT_MAX_POINTS: usize = 200;
 
+/// RANSAC inlier threshold unless told otherwise, px. LK tracks sharp frames to about 0.1 px,
+/// so half a pixel keeps the camera's tracks while rejecting objects that move only a pixel
+/// relative to the ground, which a homography with a 1 px threshold can bend to absorb.
+pub const DEFAULT_THRESHOLD: f32 = 0.5;
+
 /// Horizontal field of view assumed when no focal length is given, radians.
 const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_3;
 /// Columns of the bucketing grid; rows follow the frame's aspect ratio.
@@ -34,6 +39,8 @@ pub struct EstimatorSettings {
     pub focal: Option<f32>,
     /// At most this many points are tracked per frame pair.
     pub max_points: usize,
+    /// RANSAC inlier threshold on the transfer error, px.
+    pub threshold: f32,
 }
 
 impl Default for EstimatorSettings {
@@ -42,6 +49,7 @@ impl Default for EstimatorSettings {
             model: ModelKind::Homography,
             focal: None,
             max_points: DEFAULT_MAX_POINTS,
+            threshold: DEFAULT_THRESHOLD,
         }
     }
 }
@@ -91,6 +99,7 @@ impl MotionEstimator {
         let lk = LucasKanade::new(lk_params).map_err(|e| format!("tracker: {e}"))?;
         let ransac_params = RansacParams {
             model: settings.model,
+            threshold: settings.threshold,
             ..RansacParams::default()
         };
         let ransac = Ransac::new(ransac_params).map_err(|e| format!("model fit: {e}"))?;

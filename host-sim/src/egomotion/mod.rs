@@ -11,5 +11,7 @@ mod estimator;
 mod gyro;
 
 pub use clock::FrameClock;
-pub use estimator::{EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS};
+pub use estimator::{
+    EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
+};
 pub use gyro::{GyroLog, GyroSample};

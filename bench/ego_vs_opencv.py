@@ -1,0 +1,173 @@
+#!/usr/bin/env python3
+"""Camera motion between frames: Kestrel (`host-sim egomotion`) and OpenCV on the same frames.
+
+Frames: seeded synthetic flights from `host-sim synth-sequence` over textured ground, with two
+independently moving textured objects (20-30% of the tracks are outliers) and sensor noise of
+1 grey level; camera paths pan, yaw, climb and perspective; 160x120 and 320x240.
+
+Both sides measure the homography of every consecutive frame pair the same way:
+- Kestrel: the library's Shi-Tomasi corners spread by a grid (at most 200), Q16 pyramidal LK,
+  RANSAC homography (0.5 px threshold, the default) with a least-squares refit, as
+  `host-sim egomotion` runs them. Time per pair from `--stats`: building the new frame's pyramid (the previous one is
+  kept), detection, tracking and the fit.
+- OpenCV: goodFeaturesToTrack (200 corners, quality 0.01, the same minimum distance),
+  calcOpticalFlowPyrLK (21x21 window, max level 3, 30 iterations, epsilon 0.01),
+  findHomography with RANSAC (the same 0.5 px threshold), one thread. Time per pair: all three
+  calls (calcOpticalFlowPyrLK builds both pyramids itself).
+
+Corner error: the mean distance between the images of the four frame corners under the
+estimated and the exact homography; the median and 95th percentile over all pairs of a path are
+reported. Decoding is never timed.
+
+Needs: python3 with numpy and opencv-python-headless (pip install numpy opencv-python-headless).
+Usage: bench/ego_vs_opencv.py [--sequences N] [--frames N] [--repeat N] [--no-build]
+"""
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import cv2
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
+PATHS = ("pan", "yaw", "climb", "perspective")
+SIZES = ((160, 120), (320, 240))
+MAX_POINTS, WINDOW, LEVELS, ITERATIONS, EPSILON, THRESHOLD = 200, 21, 3, 30, 0.01, 0.5
+
+
+def run(*args):
+    subprocess.run(args, check=True, cwd=ROOT)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def homographies(path):
+    """frame -> 3x3 homography, from ego.csv or truth.csv."""
+    names = [f"h{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+    return {int(r["frame"]): np.array([float(r[n]) for n in names]).reshape(3, 3)
+            for r in read_csv(path)}
+
+
+def corner_error(estimate, truth, width, height):
+    corners = np.array([[0, 0, 1], [width - 1, 0, 1], [0, height - 1, 1],
+                        [width - 1, height - 1, 1]], dtype=np.float64).T
+    a, b = estimate @ corners, truth @ corners
+    return float(np.mean(np.hypot(*(a[:2] / a[2] - b[:2] / b[2]))))
+
+
+def min_distance(width, height):
+    """Kestrel's corner spacing: room for twice the points, between 3 and 10 px."""
+    return int(min(10.0, max(3.0, (width * height / (2 * MAX_POINTS)) ** 0.5)))
+
+
+def kestrel(directory):
+    """Per-pair homographies, outlier share and median seconds per pair."""
+    ego, stats = os.path.join(directory, "ego.csv"), os.path.join(directory, "stats.json")
+    run(HOST_SIM, "egomotion", os.path.join(directory, "frames"), "--out", ego,
+        "--stats", stats, "--max-points", str(MAX_POINTS))
+    with open(stats) as f:
+        seconds = json.load(f)["median_pair_seconds"]
+    rows = read_csv(ego)
+    outliers = [1 - int(r["inliers"]) / max(1, int(r["tracked"])) for r in rows]
+    return homographies(ego), float(np.mean(outliers)), seconds
+
+
+def opencv_pair(prev, nxt, spacing):
+    corners = cv2.goodFeaturesToTrack(prev, MAX_POINTS, 0.01, spacing)
+    if corners is None or len(corners) < 4:
+        return None, 0.0
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, ITERATIONS, EPSILON)
+    moved, status, _ = cv2.calcOpticalFlowPyrLK(prev, nxt, corners, None,
+                                               winSize=(WINDOW, WINDOW), maxLevel=LEVELS,
+                                               criteria=criteria)
+    ok = status.ravel() == 1
+    if ok.sum() < 4:
+        return None, 0.0
+    h, mask = cv2.findHomography(corners[ok], moved[ok], cv2.RANSAC, THRESHOLD)
+    if h is None:
+        return None, 0.0
+    return h / h[2, 2], 1 - float(mask.sum()) / len(mask)
+
+
+def opencv(directory, repeat, spacing):
+    """Per-pair homographies (identity when none was found), outlier share and median seconds
+    per pair (each pair timed `repeat` times, its median kept)."""
+    frames_dir = os.path.join(directory, "frames")
+    frames = [cv2.imread(os.path.join(frames_dir, name), cv2.IMREAD_GRAYSCALE)
+              for name in sorted(os.listdir(frames_dir))]
+    estimates, outliers, seconds = {}, [], []
+    for k in range(1, len(frames)):
+        times = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            h, outlier_share = opencv_pair(frames[k - 1], frames[k], spacing)
+            times.append(time.perf_counter() - t0)
+        seconds.append(float(np.median(times)))
+        estimates[k] = h if h is not None else np.eye(3)
+        outliers.append(outlier_share)
+    return estimates, float(np.mean(outliers)), float(np.median(seconds))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sequences", type=int, default=3, help="seeded flights per path")
+    parser.add_argument("--frames", type=int, default=20, help="frames per flight")
+    parser.add_argument("--repeat", type=int, default=5, help="OpenCV timing runs per pair")
+    parser.add_argument("--no-build", action="store_true")
+    options = parser.parse_args()
+    if not options.no_build:
+        run("cargo", "build", "--release", "-q", "-p", "host-sim")
+    cv2.setNumThreads(1)
+
+    print(f"# Ego-motion benchmark, {datetime.date.today()}: bench/ego_vs_opencv.py "
+          f"--sequences {options.sequences} --frames {options.frames} --repeat {options.repeat}")
+    print(f"OpenCV {cv2.__version__}, numpy {np.__version__}, python {sys.version.split()[0]}; "
+          f"{options.sequences} flights x {options.frames - 1} pairs per row, "
+          "two moving objects, noise 1 grey level")
+    print()
+    print("| size | path | outliers | corner error median px: Kestrel / OpenCV "
+          "| 95th pct px: Kestrel / OpenCV | ms per pair: Kestrel / OpenCV |")
+    print("|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as work:
+        for width, height in SIZES:
+            spacing = min_distance(width, height)
+            for path in PATHS:
+                errors = {"Kestrel": [], "OpenCV": []}
+                seconds = {"Kestrel": [], "OpenCV": []}
+                outliers = []
+                for seed in range(1, options.sequences + 1):
+                    directory = os.path.join(work, f"{path}-{width}-{seed}")
+                    run(HOST_SIM, "synth-sequence", "--out", directory, "--path", path,
+                        "--frames", str(options.frames), "--width", str(width),
+                        "--height", str(height), "--seed", str(seed), "--objects", "2")
+                    truth = homographies(os.path.join(directory, "truth.csv"))
+                    k_h, k_out, k_s = kestrel(directory)
+                    o_h, _, o_s = opencv(directory, options.repeat, spacing)
+                    outliers.append(k_out)
+                    for name, estimates in (("Kestrel", k_h), ("OpenCV", o_h)):
+                        errors[name] += [corner_error(estimates[k], truth[k], width, height)
+                                         for k in truth]
+                    seconds["Kestrel"].append(k_s)
+                    seconds["OpenCV"].append(o_s)
+                med = {n: np.median(e) for n, e in errors.items()}
+                p95 = {n: np.percentile(e, 95) for n, e in errors.items()}
+                ms = {n: 1e3 * np.median(s) for n, s in seconds.items()}
+                print(f"| {width}x{height} | {path} | {100 * np.mean(outliers):.0f}% "
+                      f"| {med['Kestrel']:.3f} / {med['OpenCV']:.3f} "
+                      f"| {p95['Kestrel']:.3f} / {p95['OpenCV']:.3f} "
+                      f"| {ms['Kestrel']:.2f} / {ms['OpenCV']:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

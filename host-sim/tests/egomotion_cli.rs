@@ -687,3 +687,19 @@ fn help_texts_describe_the_new_commands() {
         );
     }
 }
+
+#[test]
+fn an_unwritable_output_fails_before_any_work_and_writes_nothing() {
+    let scratch = Scratch::new("unwritable");
+    let input = pan_frames(&scratch, 2);
+    let out = scratch.path("ego.csv");
+    let nowhere = scratch.path("no-such-dir").join("flow.bin");
+    let output = host_sim(&[&"egomotion", &input, &"--out", &out, &"--mavlink", &nowhere]);
+    assert_one_line_error(&output, 1, &["flow.bin", "no-such-dir does not exist"]);
+    assert!(!out.exists());
+    // A file where the output directory should be.
+    let file = scratch.path("taken");
+    fs::write(&file, "not a directory").unwrap();
+    let output = host_sim(&[&"stabilize", &input, &"--out", &file]);
+    assert_one_line_error(&output, 1, &["taken", "cannot create"]);
+}

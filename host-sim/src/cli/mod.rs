@@ -29,12 +29,11 @@ host-sim: the Kestrel host simulator. Runs the library on recorded frames and wr
 Usage: host-sim <COMMAND> [options]
 
 Commands:
-  flow       track points from one frame to the next (sparse pyramidal Lucas-Kanade)
-  egomotion  the camera's motion between consecutive frames, and OPTICAL_FLOW_RAD for the autopilot
-  stabilize  write camera-motion-compensated frames (video stabilization)
-  synth      write seeded synthetic frame pairs with exact ground truth
-  synth-sequence
-             write a seeded synthetic flight with exact homographies and gyro
+  flow            track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  egomotion       camera motion between consecutive frames, and OPTICAL_FLOW_RAD for autopilots
+  stabilize       write camera-motion-compensated frames (video stabilization)
+  synth           write seeded synthetic frame pairs with exact ground truth
+  synth-sequence  write a seeded synthetic flight with exact homographies and gyro
 
 Options:
   -h, --help       print this help; 'host-sim <COMMAND> --help' describes a command

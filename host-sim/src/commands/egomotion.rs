@@ -169,28 +169,27 @@ impl SequenceRun {
     fn push(&mut self, index: usize, frame: Frame) -> Result<Option<PairReport>, CommandError> {
         let failed =
             |problem: String| CommandError::Processing(format!("frame {index}: {problem}"));
-        if self.estimator.is_none() {
-            let estimator =
-                MotionEstimator::new(&self.settings, frame.width, frame.height).map_err(failed)?;
-            let accumulator = FlowRadAccumulator::new(*estimator.camera(), 0);
-            self.estimator = Some((estimator, accumulator));
-        }
-        self.frames += 1;
         let gyro = (index > 0).then(|| self.gyro_over(index)).flatten();
-        let rotation = gyro
-            .and_then(|g| Rotation::from_integrated_gyro(g, self.clock.interval_us(index)).ok());
-        let Some((estimator, accumulator)) = &mut self.estimator else {
-            return Ok(None);
+        let interval_us = self.clock.interval_us(index);
+        let rotation = gyro.and_then(|g| Rotation::from_integrated_gyro(g, interval_us).ok());
+        let (estimator, accumulator) = match &mut self.estimator {
+            Some(state) => state,
+            None => {
+                let estimator = MotionEstimator::new(&self.settings, frame.width, frame.height)
+                    .map_err(failed)?;
+                let accumulator = FlowRadAccumulator::new(*estimator.camera(), 0);
+                self.estimator.insert((estimator, accumulator))
+            }
         };
+        self.frames += 1;
         let start = Instant::now();
-        let measured = estimator.push(frame, rotation.as_ref()).map_err(failed)?;
-        let Some(pair) = measured else {
+        let Some(pair) = estimator.push(frame, rotation.as_ref()).map_err(failed)? else {
             return Ok(None);
         };
         self.pair_seconds.push(start.elapsed().as_secs_f64());
         self.tracked_total += pair.tracked;
 
-        let flow_status = accumulator.add(&pair.motion, self.clock.interval_us(index), gyro);
+        let flow_status = accumulator.add(&pair.motion, interval_us, gyro);
         let reading = accumulator.readout(self.clock.time_us(index));
         let status = match (gyro, rotation) {
             (Some(_), None) => PairStatus::BadGyro,

@@ -4,9 +4,11 @@
 pub mod cli;
 pub mod commands;
 pub mod dense;
+pub mod egomotion;
 pub mod frame;
 pub mod io;
 pub mod reference;
+pub mod stabilize;
 pub mod synth;
 pub mod tracking;
 pub mod viz;

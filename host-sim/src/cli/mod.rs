@@ -4,9 +4,12 @@
 pub mod args;
 pub mod demo;
 pub mod dense;
+pub mod egomotion;
 pub mod flow;
 pub mod motion;
+pub mod stabilize;
 pub mod synth;
+pub mod synth_sequence;
 pub mod track;
 
 use std::ffi::OsString;
@@ -30,12 +33,15 @@ host-sim: the Kestrel host simulator. Runs the library on recorded frames and wr
 Usage: host-sim <COMMAND> [options]
 
 Commands:
-  demo      run the library on a built-in sequence and write pictures (start here)
-  flow      track points from one frame to the next (sparse pyramidal Lucas-Kanade)
-  track     follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)
-  dense     flow at every node of a grid, as CSV, a Middlebury .flo field and picture
-  motion    boxes around what moves in a sequence, the camera's own motion removed
-  synth     write seeded synthetic frame pairs with exact ground truth
+  demo            run the library on a built-in sequence and write pictures (start here)
+  flow            track points from one frame to the next (sparse pyramidal Lucas-Kanade)
+  track           follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)
+  dense           flow at every node of a grid, as CSV, a Middlebury .flo field and picture
+  motion          boxes around what moves in a sequence, the camera's own motion removed
+  egomotion       camera motion between consecutive frames, and OPTICAL_FLOW_RAD for autopilots
+  stabilize       write camera-motion-compensated frames (video stabilization)
+  synth           write seeded synthetic frame pairs with exact ground truth
+  synth-sequence  write a seeded synthetic flight with exact homographies and gyro
 
 Options:
   -h, --help       print this help; 'host-sim <COMMAND> --help' describes a command
@@ -66,7 +72,10 @@ enum Request {
     Track(commands::track::TrackOptions),
     Dense(commands::dense::DenseOptions),
     Motion(commands::motion::MotionOptions),
+    Egomotion(commands::egomotion::EgomotionOptions),
+    Stabilize(commands::stabilize::StabilizeOptions),
     Synth(commands::synth::SynthOptions),
+    SynthSequence(commands::synth_sequence::SynthSequenceOptions),
 }
 
 /// Runs `host-sim` with `args` (the program name first, as from [`std::env::args_os`]) and
@@ -116,9 +125,21 @@ fn request(words: &[OsString]) -> Result<Request, UsageError> {
             Some(options) => Request::Motion(options),
             None => Request::Print(motion::USAGE),
         }),
+        "egomotion" => Ok(match egomotion::parse_options(rest)? {
+            Some(options) => Request::Egomotion(options),
+            None => Request::Print(egomotion::USAGE),
+        }),
+        "stabilize" => Ok(match stabilize::parse_options(rest)? {
+            Some(options) => Request::Stabilize(options),
+            None => Request::Print(stabilize::USAGE),
+        }),
         "synth" => Ok(match synth::parse_options(rest)? {
             Some(options) => Request::Synth(options),
             None => Request::Print(synth::USAGE),
+        }),
+        "synth-sequence" => Ok(match synth_sequence::parse_options(rest)? {
+            Some(options) => Request::SynthSequence(options),
+            None => Request::Print(synth_sequence::USAGE),
         }),
         other if other.starts_with('-') => Err(UsageError::new(
             other,
@@ -146,7 +167,10 @@ fn execute(request: Request) -> Result<(), CommandError> {
         Request::Track(options) => commands::track::run(&options),
         Request::Dense(options) => commands::dense::run(&options),
         Request::Motion(options) => commands::motion::run(&options),
+        Request::Egomotion(options) => commands::egomotion::run(&options),
+        Request::Stabilize(options) => commands::stabilize::run(&options),
         Request::Synth(options) => commands::synth::run(&options),
+        Request::SynthSequence(options) => commands::synth_sequence::run(&options),
     }
 }
 

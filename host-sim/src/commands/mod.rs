@@ -2,9 +2,12 @@
 
 pub mod demo;
 pub mod dense;
+pub mod egomotion;
 pub mod flow;
 pub mod motion;
+pub mod stabilize;
 pub mod synth;
+pub mod synth_sequence;
 pub mod track;
 
 use std::fmt;

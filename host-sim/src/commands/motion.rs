@@ -6,7 +6,7 @@
 
 use std::ffi::OsString;
 use std::fs;
-use std::io::{self, IsTerminal, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -18,7 +18,7 @@ use crate::dense::picture::motion_overlay;
 use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
 use crate::io::json::JsonObject;
-use crate::io::{describe_io_error, AtomicFile, FrameSource, OutputError};
+use crate::io::{describe_io_error, AtomicFile, FrameSource, OutputError, Progress};
 use crate::Frame;
 
 /// Columns of boxes.csv: the contract's five, then the region's size in grid nodes.
@@ -57,7 +57,9 @@ pub fn run(options: &MotionOptions) -> Result<(), CommandError> {
     let mut csv = CsvWriter::new(Vec::new(), &COLUMNS).map_err(|e| out.write_error(&e))?;
     let mut pass = Pass::default();
     let outcome = detect(options, source, &name, &mut csv, &mut pass);
-    pass.progress.finish();
+    if let Some(progress) = pass.progress.take() {
+        progress.finish();
+    }
 
     if pass.frames > 0 {
         out.write_all(&csv.into_inner())
@@ -84,7 +86,7 @@ struct Pass {
     frames: usize,
     /// Library time per frame, s.
     seconds: Vec<f64>,
-    progress: Progress,
+    progress: Option<Progress>,
 }
 
 /// Feeds every frame of `source` to the pipeline, writing boxes (and pictures) as it goes;
@@ -113,7 +115,9 @@ fn detect(
         let found = runner.push(frame).map_err(refused)?;
         pass.seconds.push(start.elapsed().as_secs_f64());
         pass.frames += 1;
-        pass.progress.show(index);
+        pass.progress
+            .get_or_insert_with(|| Progress::new("motion", None))
+            .update(index + 1);
         let Some(found) = found else {
             continue;
         };
@@ -151,37 +155,4 @@ fn write_picture(
 fn create_dir(dir: &Path) -> Result<(), OutputError> {
     fs::create_dir_all(dir)
         .map_err(|e| OutputError::new(dir, format!("cannot create: {}", describe_io_error(&e))))
-}
-
-/// A frame counter on stderr, only when stderr is a terminal.
-#[derive(Debug)]
-struct Progress {
-    on: bool,
-    shown: bool,
-}
-
-impl Default for Progress {
-    fn default() -> Self {
-        Self {
-            on: io::stderr().is_terminal(),
-            shown: false,
-        }
-    }
-}
-
-impl Progress {
-    fn show(&mut self, index: usize) {
-        if self.on {
-            eprint!("\rhost-sim motion: frame {index}");
-            self.shown = true;
-        }
-    }
-
-    /// Ends the counter's line, so an error message starts on a fresh one.
-    fn finish(&mut self) {
-        if self.shown {
-            eprintln!();
-            self.shown = false;
-        }
-    }
 }

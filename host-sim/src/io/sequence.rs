@@ -109,6 +109,15 @@ impl FrameSource {
         }
     }
 
+    /// Frames per second, when the input says (a y4m header with a frame rate); image
+    /// directories carry no timing.
+    pub fn frame_rate(&self) -> Option<f64> {
+        match &self.frames {
+            Frames::Files(_) => None,
+            Frames::Y4m(stream) => stream.header().frame_rate.map(|rate| rate.per_second()),
+        }
+    }
+
     /// The next frame and the name of the file it came from, `None` at the end.
     fn read_next(&mut self, index: usize) -> Result<Option<(Frame, String)>, InputError> {
         match &mut self.frames {

@@ -72,6 +72,41 @@ pub struct Y4mHeader {
     pub height: usize,
     /// The chroma layout after each Y plane.
     pub chroma: Chroma,
+    /// Frames per second (`F<num>:<den>`), when the header gives it (`F0:0` means unknown).
+    pub frame_rate: Option<FrameRate>,
+}
+
+/// A frame rate as the exact ratio a y4m header gives, e.g. 30000:1001 for NTSC video.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameRate {
+    /// Frames...
+    pub numerator: u32,
+    /// ...per this many seconds.
+    pub denominator: u32,
+}
+
+impl FrameRate {
+    /// Frames per second.
+    pub fn per_second(&self) -> f64 {
+        f64::from(self.numerator) / f64::from(self.denominator)
+    }
+
+    /// Parses the value of an `F` header parameter; `Ok(None)` for `0:0`, the unknown rate.
+    fn parse(value: &str) -> Result<Option<Self>, String> {
+        let bad =
+            || format!("y4m header has a bad frame rate \"F{value}\" (expected F<num>:<den>)");
+        let (numerator, denominator) = value.split_once(':').ok_or_else(bad)?;
+        let numerator: u32 = numerator.parse().map_err(|_| bad())?;
+        let denominator: u32 = denominator.parse().map_err(|_| bad())?;
+        match (numerator, denominator) {
+            (0, 0) => Ok(None),
+            (0, _) | (_, 0) => Err(bad()),
+            _ => Ok(Some(Self {
+                numerator,
+                denominator,
+            })),
+        }
+    }
 }
 
 impl Y4mHeader {
@@ -83,6 +118,7 @@ impl Y4mHeader {
             .ok_or("not a y4m stream (no YUV4MPEG2 signature)")?;
         let text = std::str::from_utf8(rest).map_err(|_| "y4m header is not ASCII text")?;
         let (mut width, mut height, mut chroma) = (None, None, Chroma::Half);
+        let mut frame_rate = None;
         for token in text.split(' ').filter(|t| !t.is_empty()) {
             let mut chars = token.chars();
             let (tag, value) = (chars.next(), chars.as_str());
@@ -94,7 +130,8 @@ impl Y4mHeader {
                         format!("unsupported y4m colour space C{value} (8-bit 420, 422, 444 or mono expected)")
                     })?;
                 }
-                // Frame rate, interlacing, aspect ratio and extensions do not affect the layout.
+                Some('F') => frame_rate = FrameRate::parse(value)?,
+                // Interlacing, aspect ratio and extensions do not affect the layout.
                 _ => {}
             }
         }
@@ -105,6 +142,7 @@ impl Y4mHeader {
             width,
             height,
             chroma,
+            frame_rate,
         })
     }
 
@@ -286,6 +324,22 @@ pub(crate) mod tests {
             assert_eq!(frames.len(), 3, "{colour}");
             assert_eq!((frames[2].width, frames[2].height), (5, 3));
             assert_eq!(frames[2].at(4, 2), 8, "{colour}");
+        }
+    }
+
+    #[test]
+    fn the_frame_rate_is_read_when_given() {
+        let header = |line: &[u8]| Y4mHeader::parse(line).map(|h| h.frame_rate);
+        let ntsc = header(b"YUV4MPEG2 W2 H2 F30000:1001").unwrap().unwrap();
+        assert!((ntsc.per_second() - 29.97).abs() < 1e-3);
+        assert_eq!(header(b"YUV4MPEG2 W2 H2"), Ok(None));
+        assert_eq!(header(b"YUV4MPEG2 W2 H2 F0:0"), Ok(None));
+        for bad in [&b"F30"[..], b"F30:0", b"Fx:1", b"F0:1"] {
+            let line = [&b"YUV4MPEG2 W2 H2 "[..], bad].concat();
+            assert!(
+                header(&line).unwrap_err().contains("bad frame rate"),
+                "{bad:?}"
+            );
         }
     }
 

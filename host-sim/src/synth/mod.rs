@@ -16,6 +16,8 @@
 //! assert_eq!(truth.len(), points.len());
 //! ```
 
+mod flight;
+mod glider;
 mod homography;
 mod object;
 pub mod objects;
@@ -26,6 +28,8 @@ mod scene;
 mod sequence;
 mod texture;
 
+pub use flight::{Flight, FlightPath, FlightSequence, OBJECT_SHARE};
+pub use glider::Glider;
 pub use homography::Homography;
 pub use object::{MovingObject, Surface};
 pub use points::{grid_points, textured_points};

@@ -111,11 +111,25 @@ impl Scene {
     ///
     /// Panics if `warp` is singular.
     pub fn render(&self, warp: &Homography, lighting: Lighting, frame_index: u64) -> Frame {
+        self.render_with_overlay(warp, lighting, frame_index, |_, _| None)
+    }
+
+    /// Like [`Scene::render`], with `overlay(x, y)` drawn over the scene wherever it gives a
+    /// grey level (moving objects, in frame coordinates).
+    pub fn render_with_overlay(
+        &self,
+        warp: &Homography,
+        lighting: Lighting,
+        frame_index: u64,
+        overlay: impl Fn(f64, f64) -> Option<f64>,
+    ) -> Frame {
         let (w, h) = (self.spec.width, self.spec.height);
         let inverse = warp.inverse().expect("a camera warp is invertible");
         let radiance = area_sample(w, h, self.spec.supersample, |x, y| {
-            let (u, v) = inverse.apply(x, y);
-            self.value(frame_index as f64, u, v)
+            overlay(x, y).unwrap_or_else(|| {
+                let (u, v) = inverse.apply(x, y);
+                self.value(frame_index as f64, u, v)
+            })
         });
         let exposure = Exposure {
             lighting,

@@ -1,0 +1,381 @@
+//! `host-sim egomotion`: the camera's motion between consecutive frames, and the autopilot's
+//! OPTICAL_FLOW_RAD stream.
+//!
+//! Each frame pair gets one row of `ego.csv` and, with `--mavlink`, one MAVLink 2 frame: the
+//! flow accumulator is read out after every pair, so each message integrates exactly one frame
+//! interval. A pair whose fit fails gets the identity homography, zero inliers and quality 0
+//! (the library's convention: no motion is claimed), never a stale model.
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
+use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlowRad, Rotation};
+
+use super::CommandError;
+use crate::egomotion::{EstimatorSettings, FrameClock, GyroLog, MotionEstimator, PairMotion};
+use crate::io::csv::CsvWriter;
+use crate::io::json::JsonObject;
+use crate::io::{AtomicFile, FrameSource, Progress};
+use crate::Frame;
+
+/// Columns of ego.csv: the contract's twelve, then the extras.
+pub const COLUMNS: [&str; 17] = [
+    "frame",
+    "h11",
+    "h12",
+    "h13",
+    "h21",
+    "h22",
+    "h23",
+    "h31",
+    "h32",
+    "h33",
+    "inliers",
+    "quality",
+    "tracked",
+    "rms",
+    "integrated_x",
+    "integrated_y",
+    "status",
+];
+
+/// MAVLink sender: system 1 (the vehicle), component 100 (MAV_COMP_ID_CAMERA).
+const SYSTEM_ID: u8 = 1;
+const COMPONENT_ID: u8 = 100;
+
+/// Everything `egomotion` needs, validated by the command line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EgomotionOptions {
+    /// The sequence: a directory of frames, a y4m file, or `-` for y4m on stdin.
+    pub input: OsString,
+    /// ego.csv.
+    pub out: PathBuf,
+    /// How motion is measured (model, focal length, points per pair).
+    pub settings: EstimatorSettings,
+    /// Gyro log, if any.
+    pub gyro: Option<PathBuf>,
+    /// Where to write the MAVLink frames, if anywhere.
+    pub mavlink: Option<PathBuf>,
+    /// Frame rate given on the command line; otherwise the input's, otherwise 30.
+    pub fps: Option<f64>,
+    /// Where to write the timing summary, if anywhere.
+    pub stats: Option<PathBuf>,
+}
+
+/// The outcome of one frame pair, as written to ego.csv and the MAVLink stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairReport {
+    /// The later frame of the pair (1, 2, ...).
+    pub frame: usize,
+    /// The measured motion.
+    pub pair: PairMotion,
+    /// The autopilot reading for the pair's interval.
+    pub reading: OpticalFlowRad,
+    /// Why the reading is unusable, or `Ok`.
+    pub status: PairStatus,
+}
+
+/// Whether a pair's reading is usable, and why not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PairStatus {
+    /// The accumulator's verdict: `Ok`, the fit's failure, or `Degenerate` for a motion that
+    /// has no image of the principal point.
+    Flow(EgoStatus),
+    /// The gyro reading over the interval was NaN, infinite or beyond the library's range.
+    BadGyro,
+}
+
+impl PairStatus {
+    /// The name in ego.csv's `status` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            PairStatus::Flow(EgoStatus::Ok) => "ok",
+            PairStatus::Flow(EgoStatus::TooFewTracks) => "too_few_tracks",
+            PairStatus::Flow(EgoStatus::Degenerate) => "degenerate",
+            PairStatus::Flow(EgoStatus::NoConsensus) => "no_consensus",
+            PairStatus::Flow(EgoStatus::BadInput) => "bad_input",
+            PairStatus::BadGyro => "bad_gyro",
+        }
+    }
+}
+
+/// Runs `egomotion`. Outputs are created before any work, so an unwritable path fails fast. A
+/// bad frame stops the run: the pairs before it are kept (committed), then the error is
+/// reported; an error before the first frame writes nothing.
+pub fn run(options: &EgomotionOptions) -> Result<(), CommandError> {
+    let mut outputs = Outputs::create(options)?;
+    let gyro = options.gyro.as_deref().map(GyroLog::read).transpose()?;
+    let source = FrameSource::open(&options.input)?;
+    let fps = options
+        .fps
+        .or(source.frame_rate())
+        .unwrap_or(FrameClock::DEFAULT_FPS);
+    let mut run = SequenceRun::new(options, FrameClock::new(fps), gyro);
+    let mut progress = Progress::new("egomotion", source.frame_count());
+    let mut failure = None;
+    for (index, frame) in source.enumerate() {
+        let step = frame
+            .map_err(CommandError::from)
+            .and_then(|frame| run.push(index, frame))
+            .and_then(|report| match report {
+                Some(report) => outputs.write(&report),
+                None => Ok(()),
+            });
+        if let Err(error) = step {
+            failure = Some(error);
+            break;
+        }
+        progress.update(index + 1);
+    }
+    progress.finish();
+    if run.frames == 0 {
+        // Nothing was read: there are no results to keep.
+        return Err(failure.unwrap_or_else(|| CommandError::Processing("no frames".into())));
+    }
+    outputs.finish(&run)?;
+    failure.map_or(Ok(()), Err)
+}
+
+/// The state carried from frame to frame.
+struct SequenceRun {
+    settings: EstimatorSettings,
+    clock: FrameClock,
+    gyro: Option<GyroLog>,
+    /// Made for the first frame's size.
+    estimator: Option<(MotionEstimator, FlowRadAccumulator)>,
+    frames: usize,
+    pair_seconds: Vec<f64>,
+    tracked_total: usize,
+}
+
+impl SequenceRun {
+    fn new(options: &EgomotionOptions, clock: FrameClock, gyro: Option<GyroLog>) -> Self {
+        Self {
+            settings: options.settings,
+            clock,
+            gyro,
+            estimator: None,
+            frames: 0,
+            pair_seconds: Vec::new(),
+            tracked_total: 0,
+        }
+    }
+
+    /// Takes frame `index`; returns the report of the pair it ends, if any.
+    fn push(&mut self, index: usize, frame: Frame) -> Result<Option<PairReport>, CommandError> {
+        let failed =
+            |problem: String| CommandError::Processing(format!("frame {index}: {problem}"));
+        let gyro = (index > 0).then(|| self.gyro_over(index)).flatten();
+        let interval_us = self.clock.interval_us(index);
+        let rotation = gyro.and_then(|g| Rotation::from_integrated_gyro(g, interval_us).ok());
+        let (estimator, accumulator) = match &mut self.estimator {
+            Some(state) => state,
+            None => {
+                let estimator = MotionEstimator::new(&self.settings, frame.width, frame.height)
+                    .map_err(failed)?;
+                let accumulator = FlowRadAccumulator::new(*estimator.camera(), 0);
+                self.estimator.insert((estimator, accumulator))
+            }
+        };
+        self.frames += 1;
+        let start = Instant::now();
+        let Some(pair) = estimator.push(frame, rotation.as_ref()).map_err(failed)? else {
+            return Ok(None);
+        };
+        self.pair_seconds.push(start.elapsed().as_secs_f64());
+        self.tracked_total += pair.tracked;
+
+        let flow_status = accumulator.add(&pair.motion, interval_us, gyro);
+        let reading = accumulator.readout(self.clock.time_us(index));
+        let status = match (gyro, rotation) {
+            (Some(_), None) => PairStatus::BadGyro,
+            _ => PairStatus::Flow(flow_status),
+        };
+        Ok(Some(PairReport {
+            frame: index,
+            pair,
+            reading,
+            status,
+        }))
+    }
+
+    /// The gyro integrated over the interval that ends at frame `index`, when the log covers it.
+    fn gyro_over(&self, index: usize) -> Option<[f32; 3]> {
+        let log = self.gyro.as_ref()?;
+        let t0 = self.clock.time_us(index - 1) as f64;
+        let t1 = self.clock.time_us(index) as f64;
+        log.integrate(t0, t1).map(|v| v.map(|a| a as f32))
+    }
+}
+
+/// The output files, open from the start.
+struct Outputs {
+    csv: CsvWriter<AtomicFile>,
+    mavlink: Option<MavlinkStream>,
+    stats: Option<AtomicFile>,
+}
+
+impl Outputs {
+    fn create(options: &EgomotionOptions) -> Result<Self, CommandError> {
+        let out = AtomicFile::create(&options.out)?;
+        let mavlink = options
+            .mavlink
+            .as_deref()
+            .map(AtomicFile::create)
+            .transpose()?
+            .map(MavlinkStream::new);
+        let stats = options
+            .stats
+            .as_deref()
+            .map(AtomicFile::create)
+            .transpose()?;
+        let header_error = |e: std::io::Error| CommandError::from(out_error(&options.out, &e));
+        let csv = CsvWriter::new(out, &COLUMNS).map_err(header_error)?;
+        Ok(Self {
+            csv,
+            mavlink,
+            stats,
+        })
+    }
+
+    fn write(&mut self, report: &PairReport) -> Result<(), CommandError> {
+        write_row(&mut self.csv, report).map_err(|e| self.csv_error(&e))?;
+        if let Some(mavlink) = &mut self.mavlink {
+            mavlink.send(&report.reading)?;
+        }
+        Ok(())
+    }
+
+    fn csv_error(&mut self, error: &std::io::Error) -> CommandError {
+        CommandError::Output(self.csv.get_ref().write_error(error))
+    }
+
+    /// Writes the timing summary and commits every file.
+    fn finish(self, run: &SequenceRun) -> Result<(), CommandError> {
+        if let Some(mut stats) = self.stats {
+            let summary = timing_summary(run);
+            stats
+                .write_all(summary.as_bytes())
+                .map_err(|e| stats.write_error(&e))?;
+            stats.commit()?;
+        }
+        if let Some(mavlink) = self.mavlink {
+            mavlink.file.commit()?;
+        }
+        self.csv.into_inner().commit()?;
+        Ok(())
+    }
+}
+
+fn out_error(path: &std::path::Path, error: &std::io::Error) -> crate::io::OutputError {
+    crate::io::OutputError::new(
+        path,
+        format!("cannot write: {}", crate::io::describe_io_error(error)),
+    )
+}
+
+/// `{"frames": n, "pairs": p, "mean_tracked_points": t, "median_pair_seconds": s,
+/// "mean_pair_seconds": m}`: per pair, the core is building the new frame's pyramid, detecting
+/// in the previous frame, tracking and fitting; decoding and writing are not timed.
+fn timing_summary(run: &SequenceRun) -> String {
+    let pairs = run.pair_seconds.len();
+    let mut seconds = run.pair_seconds.clone();
+    seconds.sort_by(f64::total_cmp);
+    let median = match pairs {
+        0 => 0.0,
+        n if n % 2 == 1 => seconds[n / 2],
+        n => (seconds[n / 2 - 1] + seconds[n / 2]) / 2.0,
+    };
+    let mean = |total: f64| {
+        if pairs == 0 {
+            0.0
+        } else {
+            total / pairs as f64
+        }
+    };
+    JsonObject::new()
+        .integer("frames", run.frames as u64)
+        .integer("pairs", pairs as u64)
+        .number("mean_tracked_points", mean(run.tracked_total as f64))
+        .number("median_pair_seconds", median)
+        .number("mean_pair_seconds", mean(seconds.iter().sum()))
+        .finish()
+}
+
+/// One ego.csv row. Matrix entries are printed in full (the shortest text that reads back as
+/// the same `f32`), so scripts see exactly what the library computed.
+fn write_row(csv: &mut CsvWriter<AtomicFile>, report: &PairReport) -> std::io::Result<()> {
+    let m = report.pair.motion.model.matrix();
+    let r = &report.reading;
+    csv.record(&[
+        &report.frame,
+        &m[0],
+        &m[1],
+        &m[2],
+        &m[3],
+        &m[4],
+        &m[5],
+        &m[6],
+        &m[7],
+        &m[8],
+        &report.pair.motion.inliers,
+        &r.quality,
+        &report.pair.tracked,
+        &report.pair.motion.rms_residual,
+        &r.integrated_x,
+        &r.integrated_y,
+        &report.status.name(),
+    ])
+}
+
+/// MAVLink 2 frames written back to back, with increasing (wrapping) sequence numbers.
+struct MavlinkStream {
+    file: AtomicFile,
+    sequence: u8,
+}
+
+impl MavlinkStream {
+    fn new(file: AtomicFile) -> Self {
+        Self { file, sequence: 0 }
+    }
+
+    fn send(&mut self, reading: &OpticalFlowRad) -> Result<(), CommandError> {
+        let header = MavlinkHeader {
+            system_id: SYSTEM_ID,
+            component_id: COMPONENT_ID,
+            sequence: self.sequence,
+        };
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let len = encode_optical_flow_rad(reading, header, &mut frame)
+            .map_err(|e| CommandError::Processing(format!("MAVLink: {e}")))?;
+        self.file
+            .write_all(&frame[..len])
+            .map_err(|e| self.file.write_error(&e))?;
+        self.sequence = self.sequence.wrapping_add(1);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn status_names_are_snake_case() {
+        assert_eq!(PairStatus::Flow(EgoStatus::Ok).name(), "ok");
+        assert_eq!(
+            PairStatus::Flow(EgoStatus::NoConsensus).name(),
+            "no_consensus"
+        );
+        assert_eq!(PairStatus::BadGyro.name(), "bad_gyro");
+    }
+
+    #[test]
+    fn the_contract_columns_come_first() {
+        let contract = "frame,h11,h12,h13,h21,h22,h23,h31,h32,h33,inliers,quality";
+        assert!(COLUMNS.join(",").starts_with(contract));
+    }
+}

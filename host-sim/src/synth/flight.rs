@@ -1,0 +1,336 @@
+//! A camera flying over textured ground: seeded camera paths with exact frame-to-frame
+//! homographies and exact gyro rates.
+//!
+//! The camera looks straight down at a plane one unit away (frame 0's camera frame is the world
+//! frame: x right, y down the image, z along the optical axis; the ground is `n·X = 1`). Frame
+//! `k` has orientation `R_k` (its axes in the world) and centre `C_k`, and sees ground point
+//! `X` at `K R_kᵀ (X - C_k)`, so frame 0 maps to frame `k` by the plane homography
+//! `H_k = K R_kᵀ (I - C_k nᵀ) K⁻¹`. Every path but `shake` turns at a constant body rate and
+//! moves at a constant velocity; `shake` hovers, drifting slowly, with a random tremor of the
+//! orientation in every frame (the case video stabilization is for).
+//!
+//! The camera model is the library's default: square pixels, principal point at the frame
+//! centre, a 60 degree horizontal field of view.
+
+use super::glider::Glider;
+use super::homography::Homography;
+use super::render::Lighting;
+use super::rng::SplitMix64;
+use super::scene::{Scene, SceneSpec};
+use crate::Frame;
+
+/// The kinds of camera motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FlightPath {
+    /// Translation parallel to the ground: the image shifts.
+    Pan,
+    /// Turning about the optical axis while drifting: the image turns.
+    Yaw,
+    /// Moving towards or away from the ground while drifting: the image zooms.
+    Climb,
+    /// A tilted ground plane, turning and moving along every axis: a full homography.
+    Perspective,
+    /// Turning about every axis without moving: what a gyro alone predicts.
+    Rotation,
+    /// Hovering with a slow drift and a random tremor of the orientation in every frame.
+    Shake,
+}
+
+impl FlightPath {
+    /// Every path, in the order of their names.
+    pub const ALL: [FlightPath; 6] = [
+        FlightPath::Pan,
+        FlightPath::Yaw,
+        FlightPath::Climb,
+        FlightPath::Perspective,
+        FlightPath::Rotation,
+        FlightPath::Shake,
+    ];
+
+    /// The path's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            FlightPath::Pan => "pan",
+            FlightPath::Yaw => "yaw",
+            FlightPath::Climb => "climb",
+            FlightPath::Perspective => "perspective",
+            FlightPath::Rotation => "rotation",
+            FlightPath::Shake => "shake",
+        }
+    }
+
+    /// The path called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|path| path.name() == name)
+    }
+}
+
+/// Largest tremor of the `shake` path per axis and frame, rad.
+const TREMOR: f64 = 0.01;
+/// The random streams of the path's parameters and of the tremor in each frame (the scene's
+/// texture and noise use others).
+const PATH_STREAM: u64 = 2 << 32;
+const TREMOR_STREAM: u64 = 3 << 32;
+
+type Mat3 = [[f64; 3]; 3];
+
+/// A seeded camera flight for `width` x `height` frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flight {
+    path: FlightPath,
+    /// Intrinsics and their inverse.
+    k: Mat3,
+    k_inv: Mat3,
+    /// Unit normal of the ground, world frame (the ground is `normal·X = 1`).
+    normal: [f64; 3],
+    /// Body rate, camera axes, rad per frame.
+    rate: [f64; 3],
+    /// Camera centre velocity, world frame, ground distances per frame.
+    velocity: [f64; 3],
+    /// Seed of the tremor (`shake` only).
+    seed: u64,
+}
+
+impl Flight {
+    /// The flight along `path` drawn from `seed`, for frames of `width` x `height` px.
+    pub fn new(path: FlightPath, width: usize, height: usize, seed: u64) -> Self {
+        let focal = width as f64 / 2.0 / (std::f64::consts::PI / 6.0).tan();
+        let (cx, cy) = ((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0);
+        let k = [[focal, 0.0, cx], [0.0, focal, cy], [0.0, 0.0, 1.0]];
+        let k_inv = [
+            [1.0 / focal, 0.0, -cx / focal],
+            [0.0, 1.0 / focal, -cy / focal],
+            [0.0, 0.0, 1.0],
+        ];
+        let mut rng = SplitMix64::substream(seed, PATH_STREAM);
+        let mut signed = |low: f64, high: f64| {
+            let magnitude = rng.uniform(low, high);
+            if rng.below(2) == 0 {
+                magnitude
+            } else {
+                -magnitude
+            }
+        };
+        let level = [0.0, 0.0, 1.0];
+        let (normal, rate, velocity) = match path {
+            FlightPath::Pan => {
+                let v = [signed(0.005, 0.02), signed(0.005, 0.02), 0.0];
+                (level, [0.0; 3], v)
+            }
+            FlightPath::Yaw => {
+                let w = [0.0, 0.0, signed(0.015, 0.04)];
+                (level, w, [signed(0.0, 0.005), signed(0.0, 0.005), 0.0])
+            }
+            FlightPath::Climb => {
+                let v = [signed(0.0, 0.005), signed(0.0, 0.005), signed(0.005, 0.01)];
+                (level, [0.0; 3], v)
+            }
+            FlightPath::Perspective => {
+                let (nx, ny) = (signed(0.2, 0.4), signed(0.2, 0.4));
+                let norm = (nx * nx + ny * ny + 1.0).sqrt();
+                let w = [signed(0.0, 0.006), signed(0.0, 0.006), signed(0.0, 0.01)];
+                let v = [signed(0.0, 0.01), signed(0.0, 0.01), signed(0.0, 0.005)];
+                ([nx / norm, ny / norm, 1.0 / norm], w, v)
+            }
+            FlightPath::Rotation => {
+                let w = [signed(0.01, 0.04), signed(0.01, 0.04), signed(0.01, 0.04)];
+                (level, w, [0.0; 3])
+            }
+            FlightPath::Shake => {
+                let v = [signed(0.0, 0.003), signed(0.0, 0.003), 0.0];
+                (level, [0.0; 3], v)
+            }
+        };
+        Self {
+            path,
+            k,
+            k_inv,
+            normal,
+            rate,
+            velocity,
+            seed,
+        }
+    }
+
+    /// The path flown.
+    pub fn path(&self) -> FlightPath {
+        self.path
+    }
+
+    /// The warp from frame 0 to frame `k`: where each pixel of frame 0 appears in frame `k`.
+    pub fn homography(&self, k: usize) -> Homography {
+        let (r, c) = (self.orientation(k), self.centre(k));
+        let n = self.normal;
+        let plane: Mat3 = std::array::from_fn(|i| {
+            std::array::from_fn(|j| f64::from(u8::from(i == j)) - c[i] * n[j])
+        });
+        let m = mul(&mul(&self.k, &mul(&transpose(&r), &plane)), &self.k_inv);
+        let scale = m[2][2];
+        Homography {
+            m: m.map(|row| row.map(|v| v / scale)),
+        }
+    }
+
+    /// The warp from frame `k - 1` to frame `k` (`k >= 1`).
+    pub fn pair_homography(&self, k: usize) -> Homography {
+        let back = self
+            .homography(k - 1)
+            .inverse()
+            .expect("a camera in front of the ground sees it through an invertible warp");
+        back.then(&self.homography(k))
+    }
+
+    /// The constant body rates in rad/s about the sensor axes of PX4's flow convention (X to
+    /// the top of the image, Y to its right, Z along the optical axis) at `fps` frames per
+    /// second; `None` for `shake`, whose rate changes every frame.
+    pub fn body_rates(&self, fps: f64) -> Option<[f64; 3]> {
+        if self.path == FlightPath::Shake {
+            return None;
+        }
+        // Camera (x, y, z) = sensor (Y, -X, Z).
+        let [x, y, z] = self.rate;
+        Some([-y * fps, x * fps, z * fps])
+    }
+
+    /// The camera's axes in the world frame at frame `k`.
+    fn orientation(&self, k: usize) -> Mat3 {
+        match self.path {
+            FlightPath::Shake if k > 0 => {
+                let mut rng = SplitMix64::substream(self.seed, TREMOR_STREAM | k as u64);
+                rotation(std::array::from_fn(|_| rng.uniform(-TREMOR, TREMOR)))
+            }
+            _ => rotation(self.rate.map(|w| w * k as f64)),
+        }
+    }
+
+    /// The camera's centre in the world frame at frame `k`.
+    fn centre(&self, k: usize) -> [f64; 3] {
+        self.velocity.map(|v| v * k as f64)
+    }
+}
+
+/// Share of the frame each moving object covers: two objects make 20-30% of the tracks
+/// outliers on the synthetic textures.
+pub const OBJECT_SHARE: f64 = 0.12;
+
+/// The frames a camera on a [`Flight`] sees of a scene, with moving objects drawn over it.
+#[derive(Debug, Clone)]
+pub struct FlightSequence {
+    scene: Scene,
+    flight: Flight,
+    objects: Vec<Glider>,
+}
+
+impl FlightSequence {
+    /// The scene of `spec` seen along `path` (drawn from the scene's seed), with `objects`
+    /// independently moving objects.
+    pub fn new(spec: SceneSpec, path: FlightPath, objects: usize) -> Self {
+        let (w, h) = (spec.width, spec.height);
+        let objects = (0..objects)
+            .map(|i| Glider::random(w, h, OBJECT_SHARE, spec.seed ^ ((i as u64 + 1) << 40)))
+            .collect();
+        Self {
+            scene: Scene::new(spec),
+            flight: Flight::new(path, w, h, spec.seed),
+            objects,
+        }
+    }
+
+    /// The camera's flight: the ground truth.
+    pub fn flight(&self) -> &Flight {
+        &self.flight
+    }
+
+    /// Frame `k` (rendered on demand; frame `k` always has the same noise).
+    pub fn frame(&self, k: usize) -> Frame {
+        let overlay = |x, y| self.objects.iter().rev().find_map(|o| o.value(k, x, y));
+        self.scene.render_with_overlay(
+            &self.flight.homography(k),
+            Lighting::UNCHANGED,
+            k as u64,
+            overlay,
+        )
+    }
+}
+
+fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+fn transpose(a: &Mat3) -> Mat3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| a[j][i]))
+}
+
+/// `exp([w]x)`: the right-handed rotation by `|w|` radians about `w`.
+fn rotation(w: [f64; 3]) -> Mat3 {
+    let angle = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+    if angle == 0.0 {
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    }
+    let axis = w.map(|v| v / angle);
+    let (s, c) = angle.sin_cos();
+    let cross = [
+        [0.0, -axis[2], axis[1]],
+        [axis[2], 0.0, -axis[0]],
+        [-axis[1], axis[0], 0.0],
+    ];
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            c * f64::from(u8::from(i == j)) + s * cross[i][j] + (1.0 - c) * axis[i] * axis[j]
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_zero_is_unwarped_and_pairs_chain_up() {
+        for path in FlightPath::ALL {
+            let flight = Flight::new(path, 160, 120, 4);
+            assert!(
+                flight
+                    .homography(0)
+                    .distance(&Homography::IDENTITY, 160.0, 120.0)
+                    < 1e-12
+            );
+            let chained = flight.pair_homography(1).then(&flight.pair_homography(2));
+            assert!(chained.distance(&flight.homography(2), 160.0, 120.0) < 1e-9);
+            // Every path moves the image, by a few pixels per frame at most.
+            let step = flight
+                .pair_homography(5)
+                .distance(&Homography::IDENTITY, 160.0, 120.0);
+            assert!((0.2..12.0).contains(&step), "{path:?}: {step}");
+            assert_eq!(FlightPath::from_name(path.name()), Some(path));
+        }
+    }
+
+    #[test]
+    fn a_pan_shifts_and_a_yaw_turns_about_the_centre() {
+        let pan = Flight::new(FlightPath::Pan, 160, 120, 1).pair_homography(3);
+        assert!(pan.m[0][1].abs() < 1e-12 && (pan.m[0][0] - 1.0).abs() < 1e-12);
+        let yaw = Flight::new(FlightPath::Yaw, 160, 120, 1);
+        let turn = Homography::rotation(-yaw.rate[2], (79.5, 59.5));
+        let drift = yaw.pair_homography(1);
+        // The drift is a shift; apart from it the image turns against the yaw rate.
+        let (x, y) = drift.apply(79.5, 59.5);
+        let expected = turn.then(&Homography::translation(x - 79.5, y - 59.5));
+        assert!(drift.distance(&expected, 160.0, 120.0) < 1e-9);
+    }
+
+    #[test]
+    fn rolling_right_moves_the_scene_right() {
+        let mut flight = Flight::new(FlightPath::Rotation, 160, 120, 2);
+        // Sensor X (roll right) is camera -y.
+        flight.rate = [0.0, -0.02, 0.0];
+        let rates = flight.body_rates(50.0).unwrap();
+        assert!((rates[0] - 1.0).abs() < 1e-12 && rates[1] == 0.0);
+        let (x, _) = flight.pair_homography(1).apply(79.5, 59.5);
+        assert!(x > 79.5 + 2.0, "{x}");
+        assert_eq!(
+            Flight::new(FlightPath::Shake, 16, 16, 0).body_rates(30.0),
+            None
+        );
+    }
+}

@@ -22,6 +22,8 @@ Options:
   --max-tracks N    number of tracks aimed for, 1 to 1000 [default: 100]
   --viz DIR         one PNG per frame (000000.png, ...) with each track's trail over its last
                     10 frames, coloured by id; DIR is created if missing
+  --stats S.json    write {\"frames\": n, \"median_frame_seconds\": t, \"mean_frame_seconds\": t}:
+                    the library's time per frame, decoding and writing excluded
   -h, --help        print this help
 
 tracks.csv columns:
@@ -42,6 +44,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--out"),
     Flag::value("--max-tracks"),
     Flag::value("--viz"),
+    Flag::value("--stats"),
 ];
 
 const TRACKS: Rule<i64> = Rule {
@@ -70,6 +73,7 @@ fn options(matches: &Matches) -> Result<TrackOptions, UsageError> {
         // Range-checked by the rule, so the conversion cannot truncate.
         max_tracks: matches.integer("--max-tracks", 100, TRACKS)? as usize,
         viz: matches.path("--viz"),
+        stats: matches.path("--stats"),
     })
 }
 

@@ -5,9 +5,10 @@ use std::ffi::OsString;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use super::CommandError;
+use super::{median, CommandError};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::write_rgb_png;
+use crate::io::json::JsonObject;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
@@ -29,6 +30,8 @@ pub struct TrackOptions {
     pub max_tracks: usize,
     /// Where the trail pictures go, if anywhere.
     pub viz: Option<PathBuf>,
+    /// Where to write the timing summary, if anywhere.
+    pub stats: Option<PathBuf>,
 }
 
 impl From<TrackingFailure> for CommandError {
@@ -45,6 +48,11 @@ impl From<TrackingFailure> for CommandError {
 /// itself failed (it could end in the middle of a frame).
 pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let out = AtomicFile::create(&options.out)?;
+    let stats = options
+        .stats
+        .as_deref()
+        .map(AtomicFile::create)
+        .transpose()?;
     if let Some(dir) = &options.viz {
         create_output_dir(dir)?;
     }
@@ -53,6 +61,7 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let mut csv = CsvWriter::new(out, &COLUMNS).map_err(|e| write_error(&options.out, &e))?;
     let mut trails = Trails::new();
     let (mut frames_done, mut csv_failed) = (0, false);
+    let mut seconds = Vec::new();
 
     let frames = source.map(|frame| frame.map_err(CommandError::from));
     let configure = |width, height| config_for(width, height, options.max_tracks);
@@ -68,14 +77,32 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
             write_error(&options.out, &e)
         })?;
         frames_done = tracked.index + 1;
+        seconds.push(tracked.seconds);
         progress.update(frames_done);
         Ok(())
     });
     progress.finish();
     if frames_done > 0 && !csv_failed {
         csv.into_inner().commit()?;
+        if let Some(stats) = stats {
+            write_stats(stats, &mut seconds)?;
+        }
     }
     outcome.map(|_| ())
+}
+
+/// `{"frames": n, "median_frame_seconds": t, "mean_frame_seconds": t}`: the library's time per
+/// frame (pyramid, tracking, gates, detection), decoding and writing excluded.
+fn write_stats(mut file: AtomicFile, seconds: &mut [f64]) -> Result<(), CommandError> {
+    let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
+    let summary = JsonObject::new()
+        .integer("frames", seconds.len() as u64)
+        .number("median_frame_seconds", median(seconds))
+        .number("mean_frame_seconds", mean)
+        .finish();
+    file.write_all(summary.as_bytes())
+        .map_err(|e| file.write_error(&e))?;
+    Ok(file.commit()?)
 }
 
 /// The rows of one frame: every live track, oldest first.

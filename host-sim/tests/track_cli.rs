@@ -210,6 +210,27 @@ fn max_tracks_caps_the_rows_of_every_frame() {
 }
 
 #[test]
+fn stats_report_the_library_time_per_frame() {
+    let scratch = Scratch::new("track-stats");
+    let dir = scratch.path("frames");
+    write_folder(&dir, &frames(WIDTH, HEIGHT, 3));
+    let (out, stats) = (scratch.path("tracks.csv"), scratch.path("s.json"));
+    let output = host_sim(&[&"track", &dir, &"--out", &out, &"--stats", &stats]);
+    assert!(output.status.success());
+    let json = fs::read_to_string(&stats).unwrap();
+    assert!(
+        json.starts_with("{\"frames\": 3, \"median_frame_seconds\": "),
+        "{json}"
+    );
+    let seconds: f64 = json
+        .split("\"mean_frame_seconds\": ")
+        .nth(1)
+        .and_then(|rest| rest.trim_end_matches(['}', '\n']).parse().ok())
+        .unwrap();
+    assert!(seconds > 0.0 && seconds < 10.0, "{json}");
+}
+
+#[test]
 fn viz_writes_one_trail_picture_per_frame() {
     let scratch = Scratch::new("track-viz");
     let dir = scratch.path("frames");

@@ -8,6 +8,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
+mod common;
+
+use common::{assert_one_line_error, entries, host_sim, Scratch};
 use host_sim::dense::field::FlowField;
 use host_sim::synth::objects::{BoxPx, MovingObject, ObjectSequence};
 use host_sim::synth::{CameraPath, Scene, SceneSpec};
@@ -17,51 +20,12 @@ use kestrel::dense::grid::grid_len;
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
 
-/// A directory for one test's files, removed when the test ends.
-struct Scratch {
-    dir: PathBuf,
-}
-
-impl Scratch {
-    fn new(test: &str) -> Self {
-        let dir =
-            std::env::temp_dir().join(format!("host-sim-dense-{test}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        Self { dir }
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir.join(name)
-    }
-
-    /// A textured frame and the same frame shifted 2 px to the right, as a.png and b.png.
-    fn pair(&self) -> (PathBuf, PathBuf) {
-        let (a, b) = (self.path("a.png"), self.path("b.png"));
-        textured(WIDTH, HEIGHT, 0.0).save(&a).unwrap();
-        textured(WIDTH, HEIGHT, 2.0).save(&b).unwrap();
-        (a, b)
-    }
-
-    /// The names in `dir`, sorted.
-    fn entries_of(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
-    }
-
-    fn entries(&self) -> Vec<String> {
-        Self::entries_of(&self.dir)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.dir);
-    }
+/// A textured frame and the same frame shifted 2 px to the right, as a.png and b.png.
+fn pair(scratch: &Scratch) -> (PathBuf, PathBuf) {
+    let (a, b) = (scratch.path("a.png"), scratch.path("b.png"));
+    textured(WIDTH, HEIGHT, 0.0).save(&a).unwrap();
+    textured(WIDTH, HEIGHT, 2.0).save(&b).unwrap();
+    (a, b)
 }
 
 /// A smooth, non-repeating texture, its content moved `shift` px to the right.
@@ -76,34 +40,6 @@ fn textured(width: u32, height: u32, shift: f32) -> GrayImage {
     })
 }
 
-fn host_sim(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args.iter().map(|a| a.as_ref()))
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .unwrap()
-}
-
-/// Checks the error contract: exit `code`, exactly one stderr line starting `host-sim: ` and
-/// naming `culprit`, nothing on stdout, no panic or backtrace.
-fn assert_one_line_error(output: &Output, code: i32, culprit: &str) -> String {
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    assert_eq!(output.status.code(), Some(code), "stderr: {stderr}");
-    assert_eq!(stderr.lines().count(), 1, "not one line: {stderr:?}");
-    assert!(stderr.starts_with("host-sim: "), "{stderr:?}");
-    assert!(
-        stderr.contains(culprit),
-        "{stderr:?} does not name {culprit:?}"
-    );
-    let lower = stderr.to_lowercase();
-    assert!(
-        !lower.contains("panicked") && !lower.contains("backtrace"),
-        "{stderr:?}"
-    );
-    assert!(output.stdout.is_empty(), "stdout: {:?}", output.stdout);
-    stderr
-}
-
 fn rows(csv: &str) -> Vec<Vec<String>> {
     csv.lines()
         .skip(1)
@@ -113,7 +49,7 @@ fn rows(csv: &str) -> Vec<Vec<String>> {
 
 /// `dense` on the scratch pair with `extra` arguments, writing grid.csv.
 fn dense(scratch: &Scratch, extra: &[&dyn AsRef<std::ffi::OsStr>]) -> (Output, PathBuf) {
-    let (a, b) = scratch.pair();
+    let (a, b) = pair(&scratch);
     let out = scratch.path("grid.csv");
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
         vec![&"dense", &"--prev", &a, &"--next", &b, &"--out", &out];
@@ -300,7 +236,7 @@ fn motion_finds_the_objects_of_a_small_sequence() {
         }
         assert_eq!(in_frame.len(), 2, "frame {k}");
     }
-    let pictures = Scratch::entries_of(&viz);
+    let pictures = entries(&viz);
     assert_eq!(pictures.len(), 5);
     assert_eq!(pictures[0], "frame_000001.png");
     let picture = image::open(viz.join(&pictures[0])).unwrap();
@@ -346,10 +282,7 @@ fn motion_stops_at_a_bad_frame_and_keeps_the_frames_before() {
     let last = found.iter().map(|r| r[0]).fold(0.0, f64::max);
     assert_eq!(last, 2.0);
     assert!(found.iter().any(|r| r[0] == 1.0));
-    assert_eq!(
-        Scratch::entries_of(&viz),
-        ["frame_000001.png", "frame_000002.png"]
-    );
+    assert_eq!(entries(&viz), ["frame_000001.png", "frame_000002.png"]);
 
     // A frame of another size stops the run the same way.
     fs::remove_file(frames.join("0003.png")).unwrap();

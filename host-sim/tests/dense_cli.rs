@@ -49,7 +49,7 @@ fn rows(csv: &str) -> Vec<Vec<String>> {
 
 /// `dense` on the scratch pair with `extra` arguments, writing grid.csv.
 fn dense(scratch: &Scratch, extra: &[&dyn AsRef<std::ffi::OsStr>]) -> (Output, PathBuf) {
-    let (a, b) = pair(&scratch);
+    let (a, b) = pair(scratch);
     let out = scratch.path("grid.csv");
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
         vec![&"dense", &"--prev", &a, &"--next", &b, &"--out", &out];

@@ -12,16 +12,16 @@
 //!
 //! # Integer widths
 //!
-//! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
-//! `8160^2 = 66_585_600`, so [`CHUNK`] = 64 consecutive products sum to at most `4_261_478_400`:
-//! below `u32::MAX` for `I*J` (both non-negative) and, for the signed products
-//! (`|I*Ix| <= 33_292_800`, 64 of them `<= 2_130_739_200`), below `i32::MAX`. Chunk sums are
-//! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
-//! Products of window sums go through `i128`.
+//! Window sums are exact: intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`, and
+//! each set of window loops proves its own accumulator widths (`flat.rs`, `rows.rs`); sums over a
+//! whole window are `i64` (`<= 2.7e11` at 63 x 63). Products of window sums go through `i128`.
+
+use core::marker::PhantomData;
 
 use super::wide::Reciprocal;
-use super::window::{Layout, INTENSITY_BITS};
+use super::window::{Layout, Loops, TemplateBuffers, WindowOrigin, INTENSITY_BITS};
 use super::Illumination;
+use crate::frame::ImageView;
 
 /// The gain estimate is clamped to `[1/4, 4]` (Q16): no lighting change between two frames of a
 /// flight is larger, and the clamp keeps a mismatched window from producing a wild step.
@@ -38,32 +38,30 @@ const GAIN_MAX: i64 = 1 << 18;
 const GAIN_RIDGE: i128 = (2 * 32) * (2 * 32);
 const ONE: i64 = 1 << 16;
 
-/// Products summed in 32 bits before widening: the most that provably cannot overflow.
-const CHUNK: usize = 64;
-
 /// Window sums of the template that every iteration needs.
-#[derive(Debug, Clone, Copy, Default)]
-struct TemplateSums {
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct TemplateSums {
     /// Gradient matrix `[gxx gxy; gxy gyy]`.
-    gxx: i64,
-    gxy: i64,
-    gyy: i64,
+    pub gxx: i64,
+    pub gxy: i64,
+    pub gyy: i64,
     /// `ΣI`, `ΣI²`, `ΣIx`, `ΣIy`, `ΣI·Ix`, `ΣI·Iy`.
-    si: i64,
-    sii: i64,
-    sx: i64,
-    sy: i64,
-    six: i64,
-    siy: i64,
+    pub si: i64,
+    pub sii: i64,
+    pub sx: i64,
+    pub sy: i64,
+    pub six: i64,
+    pub siy: i64,
 }
 
-/// Window sums that involve the next frame `J`.
-#[derive(Debug, Clone, Copy, Default)]
-struct MatchSums {
-    sj: i64,
-    sji: i64,
-    sjx: i64,
-    sjy: i64,
+/// Window sums that involve the next frame `J`: `ΣJ`, `ΣJI` (gain and bias only), `ΣJ·Ix`,
+/// `ΣJ·Iy`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct MatchSums {
+    pub sj: i64,
+    pub sji: i64,
+    pub sjx: i64,
+    pub sjy: i64,
 }
 
 /// Why a template cannot be used at this level.
@@ -80,35 +78,32 @@ pub(crate) struct Step {
     pub dy: i32,
 }
 
-/// A point's window at one level with its precomputed solve.
-pub(crate) struct Template<'s> {
+/// A point's window at one level with its precomputed solve, for the window loops `L`.
+pub(crate) struct Template<'s, L> {
     layout: Layout,
-    /// The template intensities, laid out like the gradients and `J` (padding zero).
-    intensity: &'s [i16],
-    dx: &'s [i16],
-    dy: &'s [i16],
+    /// The template intensities and gradients, laid out like `J` (padding zero).
+    buffers: TemplateBuffers<'s>,
     sums: TemplateSums,
     illumination: Illumination,
     /// `1 / det(G)` (plain) or `1 / (n det(G))` (gain and bias).
     solve: Reciprocal,
     /// `1 / (n ΣI² - (ΣI)² + n² ridge)`, for the gain fit.
     variance: Option<Reciprocal>,
+    loops: PhantomData<L>,
 }
 
-impl<'s> Template<'s> {
+impl<'s, L: Loops> Template<'s, L> {
     /// Builds the template from its intensities and derivatives, padding cleared.
     ///
     /// `min_eigen` is the smallest acceptable eigenvalue of the gradient matrix in its integer
     /// scale (see [`super::LucasKanade`]).
     pub(crate) fn new(
-        intensity: &'s [i16],
-        dx: &'s [i16],
-        dy: &'s [i16],
+        buffers: TemplateBuffers<'s>,
         layout: Layout,
         illumination: Illumination,
         min_eigen: u64,
     ) -> Result<Self, TemplateError> {
-        let sums = template_sums(intensity, dx, dy);
+        let sums = L::template_sums(&buffers);
         if !min_eigenvalue_at_least(&sums, min_eigen) {
             return Err(TemplateError::LowTexture);
         }
@@ -128,13 +123,12 @@ impl<'s> Template<'s> {
             .and_then(Reciprocal::of);
         Ok(Self {
             layout,
-            intensity,
-            dx,
-            dy,
+            buffers,
             sums,
             illumination,
             solve,
             variance,
+            loops: PhantomData,
         })
     }
 
@@ -142,9 +136,23 @@ impl<'s> Template<'s> {
         (self.layout.win * self.layout.win) as i128
     }
 
-    /// One LK step for the next-frame window `j` sampled at the current estimate.
-    pub(crate) fn step(&self, j: &[i16]) -> Step {
-        let m = self.match_sums(j);
+    /// One LK step for the next frame's window at `origin`; `scratch` is the source and window
+    /// scratch of the window loops.
+    pub(crate) fn step(
+        &self,
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        scratch: (&mut [i16], &mut [i16]),
+    ) -> Step {
+        let gain_bias = self.illumination == Illumination::GainBias;
+        let m = L::match_window(
+            frame,
+            origin,
+            &self.layout,
+            scratch,
+            &self.buffers,
+            gain_bias,
+        );
         let s = &self.sums;
         // b = Σ residual * ∇I, scaled by n in gain-bias mode.
         let (bx, by) = match self.illumination {
@@ -190,10 +198,17 @@ impl<'s> Template<'s> {
             .clamp(GAIN_MIN, GAIN_MAX)
     }
 
-    /// Mean absolute residual over the window in grey levels (Q16 raw bits), after the gain and
-    /// bias correction in gain-bias mode.
-    pub(crate) fn residual(&self, j: &[i16]) -> i32 {
-        let m = self.match_sums(j);
+    /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
+    /// bits), after the gain and bias correction in gain-bias mode.
+    pub(crate) fn residual(
+        &self,
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        (source, j): (&mut [i16], &mut [i16]),
+    ) -> i32 {
+        L::sample_window(frame, origin, &self.layout, source, j);
+        let gain_bias = self.illumination == Illumination::GainBias;
+        let m = L::match_sums(j, &self.buffers, gain_bias);
         let gain = self.gain(&m);
         let n = self.n() as i64;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
@@ -202,7 +217,8 @@ impl<'s> Template<'s> {
             Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
         };
         let mut total: i64 = 0;
-        let rows = self.layout.rows(self.intensity).zip(self.layout.rows(j));
+        let rows = self.layout.rows(self.buffers.intensity);
+        let rows = rows.zip(self.layout.rows(j));
         for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
                 let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
@@ -213,69 +229,6 @@ impl<'s> Template<'s> {
         let mean = total / (n << INTENSITY_BITS);
         mean.min(i32::MAX as i64) as i32
     }
-
-    fn match_sums(&self, j: &[i16]) -> MatchSums {
-        let mut m = MatchSums::default();
-        let chunks = j
-            .chunks(CHUNK)
-            .zip(self.intensity.chunks(CHUNK))
-            .zip(self.dx.chunks(CHUNK).zip(self.dy.chunks(CHUNK)));
-        for ((j, i), (gx, gy)) in chunks {
-            // Exact in 32 bits for 64 products (module docs).
-            let (mut sjx, mut sjy) = (0i32, 0i32);
-            for ((&jv, &gx), &gy) in j.iter().zip(gx).zip(gy) {
-                sjx += i32::from(jv) * i32::from(gx);
-                sjy += i32::from(jv) * i32::from(gy);
-            }
-            m.sjx += i64::from(sjx);
-            m.sjy += i64::from(sjy);
-            if self.illumination == Illumination::GainBias {
-                let (mut sj, mut sji) = (0i32, 0u32);
-                for (&jv, &i) in j.iter().zip(i) {
-                    sj += i32::from(jv);
-                    sji += (i32::from(jv) * i32::from(i)) as u32;
-                }
-                m.sj += i64::from(sj);
-                m.sji += i64::from(sji);
-            }
-        }
-        m
-    }
-}
-
-fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    let mut s = TemplateSums::default();
-    let chunks = intensity
-        .chunks(CHUNK)
-        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
-    for (i_chunk, (x_chunk, y_chunk)) in chunks {
-        // Exact in 32 bits for 64 products (module docs).
-        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
-        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
-            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
-        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
-            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
-            gxx += gx * gx;
-            gxy += gx * gy;
-            gyy += gy * gy;
-            si += i;
-            sii += (i * i) as u32;
-            sx += gx;
-            sy += gy;
-            six += i * gx;
-            siy += i * gy;
-        }
-        s.gxx += i64::from(gxx);
-        s.gxy += i64::from(gxy);
-        s.gyy += i64::from(gyy);
-        s.si += i64::from(si);
-        s.sii += i64::from(sii);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-        s.six += i64::from(six);
-        s.siy += i64::from(siy);
-    }
-    s
 }
 
 /// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and
@@ -315,50 +268,6 @@ mod tests {
                     "G = [{a} {b}; {b} {c}], tau {tau}"
                 );
             }
-        }
-    }
-}
-
-#[cfg(test)]
-mod width_tests {
-    use super::*;
-
-    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values the
-    /// sampler and the Scharr filter can produce, checked against 128-bit arithmetic.
-    #[test]
-    fn window_sums_are_exact_at_the_extremes() {
-        const SIDE: usize = super::super::MAX_WINDOW;
-        // A window buffer without padding: every value counts.
-        let intensity = [8160i16; SIDE * SIDE];
-        for (gx_sign, gy_sign) in [(1i16, 1i16), (1, -1), (-1, -1)] {
-            let dx = [4080 * gx_sign; SIDE * SIDE];
-            let dy = [4080 * gy_sign; SIDE * SIDE];
-            let s = template_sums(&intensity, &dx, &dy);
-            let n = (SIDE * SIDE) as i128;
-            let (gx, gy) = (4080 * gx_sign as i128, 4080 * gy_sign as i128);
-            assert_eq!(s.gxx as i128, n * gx * gx);
-            assert_eq!(s.gxy as i128, n * gx * gy);
-            assert_eq!(s.sii as i128, n * 8160 * 8160);
-            assert_eq!(s.six as i128, n * 8160 * gx);
-            assert_eq!(s.siy as i128, n * 8160 * gy);
-            let template = Template {
-                layout: Layout {
-                    win: SIDE,
-                    pitch: SIDE,
-                },
-                intensity: &intensity,
-                dx: &dx,
-                dy: &dy,
-                sums: s,
-                illumination: Illumination::GainBias,
-                solve: Reciprocal::of(1).unwrap(),
-                variance: None,
-            };
-            let j = [8160i16; SIDE * SIDE];
-            let m = template.match_sums(&j);
-            assert_eq!(m.sji as i128, n * 8160 * 8160);
-            assert_eq!(m.sjx as i128, n * 8160 * gx);
-            assert_eq!(m.sjy as i128, n * 8160 * gy);
         }
     }
 }

@@ -13,12 +13,20 @@
 //! # Integer widths
 //!
 //! Window sums are exact: intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`, and
-//! each set of window loops proves its own accumulator widths (`flat.rs`, `rows.rs`); sums over a
-//! whole window are `i64` (`<= 2.7e11` at 63 x 63). Products of window sums go through `i128`.
+//! each set of window loops proves its own accumulator widths (`flat.rs`, `rows.rs`). Over the
+//! largest window (`n = 63 x 63 = 3969 < 2^12`) the sums are bounded by
+//!
+//! - `|ΣJ·Ix|, |ΣI·Ix| <= n * 8160 * 4080 < 2^37`, `ΣJI, ΣI² <= n * 8160^2 < 2^38`,
+//! - `ΣJ, ΣI <= n * 8160 < 2^25`, `|ΣIx| <= n * 4080 < 2^24`, `gxx, gyy <= n * 4080^2 < 2^36`.
+//!
+//! An iteration's products of sums therefore fit `i64`: `n ΣJ·Ix - ΣJ ΣIx` and
+//! `n ΣI·Ix - ΣI ΣIx` below `2^50`, the gain covariance below `2^51`, the mismatch `b` below
+//! `2^53` (see [`Template::step`]). Only the template's determinant (`< 2^72`, times `n` in
+//! gain-bias mode) and variance need `i128`, once per template.
 
 use core::marker::PhantomData;
 
-use super::wide::Reciprocal;
+use super::wide::{round_shift, to_i32, Fractions, Reciprocal};
 use super::window::{Layout, Loops, TemplateBuffers, WindowOrigin, INTENSITY_BITS};
 use super::Illumination;
 use crate::frame::ImageView;
@@ -35,7 +43,7 @@ const GAIN_MAX: i64 = 1 << 18;
 /// the variance pulls the gain towards 1 on windows whose contrast is comparable to sensor noise
 /// (where a gain change is invisible anyway; the bias still absorbs the offset) and leaves it
 /// unchanged on textured windows.
-const GAIN_RIDGE: i128 = (2 * 32) * (2 * 32);
+const GAIN_RIDGE: i64 = (2 * 32) * (2 * 32);
 const ONE: i64 = 1 << 16;
 
 /// Window sums of the template that every iteration needs.
@@ -85,10 +93,16 @@ pub(crate) struct Template<'s, L> {
     buffers: TemplateBuffers<'s>,
     sums: TemplateSums,
     illumination: Illumination,
-    /// `1 / det(G)` (plain) or `1 / (n det(G))` (gain and bias).
-    solve: Reciprocal,
+    /// Window area `n`.
+    n: i64,
+    /// `adj(G) / det(G)` (plain) or `adj(G) / (n det(G))` (gain and bias): `[gyy, gxy, gxx]`
+    /// over the determinant.
+    inverse: Fractions<3>,
     /// `1 / (n ΣI² - (ΣI)² + n² ridge)`, for the gain fit.
-    variance: Option<Reciprocal>,
+    variance: Option<Fractions<1>>,
+    /// `n ΣI·Ix - ΣI ΣIx` and the same for `y` (gain and bias), split for exact `i64` products
+    /// with the gain: `(value >> 16, value & 0xFFFF)`.
+    centred_ig: [(i64, i64); 2],
     loops: PhantomData<L>,
 }
 
@@ -107,33 +121,38 @@ impl<'s, L: Loops> Template<'s, L> {
         if !min_eigenvalue_at_least(&sums, min_eigen) {
             return Err(TemplateError::LowTexture);
         }
-        let det = sums.gxx as i128 * sums.gyy as i128 - sums.gxy as i128 * sums.gxy as i128;
-        let n = (layout.win * layout.win) as i128;
+        let det = i128::from(sums.gxx) * i128::from(sums.gyy) - i128::from(sums.gxy).pow(2);
+        let n = (layout.win * layout.win) as i64;
         let scaled_det = match illumination {
             Illumination::Plain => det,
-            Illumination::GainBias => det * n,
+            Illumination::GainBias => det * i128::from(n),
         };
-        let solve = u128::try_from(scaled_det)
+        let inverse = u128::try_from(scaled_det)
             .ok()
             .and_then(Reciprocal::of)
-            .ok_or(TemplateError::LowTexture)?;
-        let variance_n = n * sums.sii as i128 - sums.si as i128 * sums.si as i128;
-        let variance = u128::try_from(variance_n + n * n * GAIN_RIDGE)
+            .ok_or(TemplateError::LowTexture)?
+            .fractions([sums.gyy, sums.gxy, sums.gxx]);
+        let variance_n = i128::from(n) * i128::from(sums.sii) - i128::from(sums.si).pow(2);
+        let ridge = i128::from(n * n * GAIN_RIDGE);
+        let variance = u128::try_from(variance_n + ridge)
             .ok()
-            .and_then(Reciprocal::of);
+            .and_then(Reciprocal::of)
+            .map(|r| r.fractions([1]));
+        let centred = |sig: i64, sg: i64| {
+            let ig = n * sig - sums.si * sg;
+            (ig >> 16, ig & 0xFFFF)
+        };
         Ok(Self {
             layout,
             buffers,
             sums,
             illumination,
-            solve,
+            n,
+            inverse,
             variance,
+            centred_ig: [centred(sums.six, sums.sx), centred(sums.siy, sums.sy)],
             loops: PhantomData,
         })
-    }
-
-    fn n(&self) -> i128 {
-        (self.layout.win * self.layout.win) as i128
     }
 
     /// One LK step for the next frame's window at `origin`; `scratch` is the source and window
@@ -153,31 +172,39 @@ impl<'s, L: Loops> Template<'s, L> {
             &self.buffers,
             gain_bias,
         );
-        let s = &self.sums;
-        // b = Σ residual * ∇I, scaled by n in gain-bias mode.
-        let (bx, by) = match self.illumination {
-            Illumination::Plain => ((m.sjx - s.six) as i128, (m.sjy - s.siy) as i128),
-            Illumination::GainBias => {
-                let n = self.n();
-                let gain = self.gain(&m) as i128;
-                let centred = |sjg: i64, sg: i64, sig: i64| {
-                    let jg = n * sjg as i128 - m.sj as i128 * sg as i128;
-                    let ig = n * sig as i128 - s.si as i128 * sg as i128;
-                    jg - ((gain * ig) >> 16)
-                };
-                (centred(m.sjx, s.sx, s.six), centred(m.sjy, s.sy, s.siy))
-            }
-        };
-        // delta = -G^-1 b, with G^-1 = adj(G) / det(G).
-        let ux = s.gyy as i128 * bx - s.gxy as i128 * by;
-        let uy = s.gxx as i128 * by - s.gxy as i128 * bx;
-        let to_step = |u: i128| {
-            let v = -self.solve.scale(u, 16);
+        let (bx, by) = self.mismatch(&m);
+        // delta = -G^-1 b, with G^-1 = adj(G) / det(G); b scaled to i32 so that each product
+        // with a coefficient (< 2^30) stays below 2^60.
+        let (bx, by, e) = to_i32(bx, by);
+        let [yy, xy, xx] = self.inverse.values;
+        let product = |c: i32, b: i32| i64::from(c) * i64::from(b);
+        let to_step = |u: i64| {
+            let v = -round_shift(u, self.inverse.shift - 16 - e as i32);
             v.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
         };
         Step {
-            dx: to_step(ux),
-            dy: to_step(uy),
+            dx: to_step(product(yy, bx) - product(xy, by)),
+            dy: to_step(product(xx, by) - product(xy, bx)),
+        }
+    }
+
+    /// The mismatch vector `b = Σ residual ∇I`, scaled by `n` in gain-bias mode; `|b| < 2^53`.
+    fn mismatch(&self, m: &MatchSums) -> (i64, i64) {
+        let s = &self.sums;
+        match self.illumination {
+            // Each term below 2^37.
+            Illumination::Plain => (m.sjx - s.six, m.sjy - s.siy),
+            Illumination::GainBias => {
+                let (n, gain) = (self.n, self.gain(m));
+                // n ΣJ·Ig - ΣJ ΣIg - gain (n ΣI·Ig - ΣI ΣIg) / 2^16: the first two terms below
+                // 2^50; the gain (<= 2^18) times the split centred sum below 2^52 and 2^34.
+                let centred = |sjg: i64, sg: i64, (ig_high, ig_low): (i64, i64)| {
+                    let jg = n * sjg - m.sj * sg;
+                    jg - (gain * ig_high + ((gain * ig_low) >> 16))
+                };
+                let [igx, igy] = self.centred_ig;
+                (centred(m.sjx, s.sx, igx), centred(m.sjy, s.sy, igy))
+            }
         }
     }
 
@@ -190,12 +217,13 @@ impl<'s, L: Loops> Template<'s, L> {
         if self.illumination == Illumination::Plain {
             return ONE;
         }
-        let s = &self.sums;
-        let n = self.n();
-        let covariance = n * m.sji as i128 - m.sj as i128 * s.si as i128;
-        variance
-            .scale(covariance + n * n * GAIN_RIDGE, 16)
-            .clamp(GAIN_MIN, GAIN_MAX)
+        let n = self.n;
+        // n ΣJI - ΣJ ΣI + n² ridge: each term below 2^50.
+        let covariance = n * m.sji - m.sj * self.sums.si + n * n * GAIN_RIDGE;
+        let (covariance, _, e) = to_i32(covariance, 0);
+        let [inverse] = variance.values;
+        let gain = i64::from(covariance) * i64::from(inverse);
+        round_shift(gain, variance.shift - 16 - e as i32).clamp(GAIN_MIN, GAIN_MAX)
     }
 
     /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
@@ -210,7 +238,7 @@ impl<'s, L: Loops> Template<'s, L> {
         let gain_bias = self.illumination == Illumination::GainBias;
         let m = L::match_sums(j, &self.buffers, gain_bias);
         let gain = self.gain(&m);
-        let n = self.n() as i64;
+        let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
         let bias = match self.illumination {
             Illumination::Plain => 0,

@@ -166,27 +166,10 @@ impl<'a> ImageView<'a> {
         self.data.get(start..start + self.width).unwrap_or(&[])
     }
 
-    /// The `cols` x `rows` block whose top-left pixel is (`x`, `y`), row by row; `None` unless
-    /// it lies wholly in the image.
+    /// The whole buffer: row `y` starts at `y * stride()`.
     #[inline]
-    pub(crate) fn block(
-        &self,
-        x: isize,
-        y: isize,
-        cols: usize,
-        rows: usize,
-    ) -> Option<impl Iterator<Item = &'a [u8]>> {
-        let (x, y) = (usize::try_from(x).ok()?, usize::try_from(y).ok()?);
-        if x + cols > self.width || y + rows > self.height || rows == 0 {
-            return None;
-        }
-        let first = self.data.get(y * self.stride + x..)?;
-        Some(
-            first
-                .chunks(self.stride)
-                .take(rows)
-                .map(move |row| row.get(..cols).unwrap_or(&[])),
-        )
+    pub(crate) fn pixels(&self) -> &'a [u8] {
+        self.data
     }
 
     /// The pixel at (`x`, `y`), or `None` outside the image.

@@ -15,7 +15,10 @@
 //! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
 
 use super::template::{MatchSums, TemplateSums};
-use super::window::{bilinear, rescale, Layout, Loops, TemplateBuffers, WindowOrigin};
+use super::window::{
+    bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
+    WindowOrigin,
+};
 use crate::frame::ImageView;
 
 /// Products summed in 32 bits before widening: the most that provably cannot overflow.
@@ -39,43 +42,33 @@ impl Loops for Flat {
         }
     }
 
-    fn sample_patch(
+    fn template(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        source: &mut [i16],
-        patch: &mut [i16],
-    ) {
-        sample(frame, origin, layout.win + 2, layout.pitch, source, patch);
+        (source, patch): (&mut [i16], &mut [i16]),
+        out: TemplateOut<'_>,
+    ) -> TemplateSums {
+        let side = layout.win + 2;
+        sample(frame, origin, side, layout.pitch, source, patch);
+        scharr(patch, layout, out.dx, out.dy);
+        if !origin.fits(frame, side, side) {
+            mask_outside(frame, origin, layout, out.dx, out.dy);
+        }
+        inner(patch, layout, out.intensity);
+        template_sums(out.intensity, out.dx, out.dy)
     }
 
-    fn sample_window(
+    fn match_window(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        source: &mut [i16],
-        out: &mut [i16],
-    ) {
-        sample(frame, origin, layout.win, layout.pitch, source, out);
-        clear_padding(layout, out);
-    }
-
-    fn derivatives(
-        patch: &[i16],
-        layout: &Layout,
-        intensity: &mut [i16],
-        dx: &mut [i16],
-        dy: &mut [i16],
-    ) {
-        scharr(patch, layout, dx, dy);
-        inner(patch, layout, intensity);
-    }
-
-    fn template_sums(t: &TemplateBuffers<'_>) -> TemplateSums {
-        template_sums(t.intensity, t.dx, t.dy)
-    }
-
-    fn match_sums(j: &[i16], t: &TemplateBuffers<'_>, gain_bias: bool) -> MatchSums {
+        (source, j): (&mut [i16], &mut [i16]),
+        t: &TemplateBuffers<'_>,
+        gain_bias: bool,
+    ) -> MatchSums {
+        sample(frame, origin, layout.win, layout.pitch, source, j);
+        clear_padding(layout, j);
         match_sums(j, t.intensity, t.dx, t.dy, gain_bias)
     }
 }
@@ -114,34 +107,6 @@ fn sample(
         .zip(run(pitch).iter().zip(run(pitch + 1)));
     for (o, ((&a, &b), (&c, &d))) in out.iter_mut().take(n).zip(quads) {
         *o = bilinear(w, a.into(), b.into(), c.into(), d.into());
-    }
-}
-
-/// Copies `rows` x `cols` pixels from `origin` into `out` (row-major, `cols` apart), repeating
-/// edge pixels outside the frame.
-fn gather(frame: &ImageView<'_>, origin: &WindowOrigin, rows: usize, cols: usize, out: &mut [i16]) {
-    let (width, height) = (frame.width() as isize, frame.height() as isize);
-    // The part of each row that lies in the frame, as offsets into the row.
-    let start = (-origin.x).clamp(0, cols as isize) as usize;
-    let end = (width - origin.x).clamp(start as isize, cols as isize) as usize;
-    let first_x = (origin.x + start as isize).max(0) as usize;
-    for (r, dst) in out.chunks_exact_mut(cols).take(rows).enumerate() {
-        let y = (origin.y + r as isize).clamp(0, height - 1) as usize;
-        let row = frame.row(y);
-        if let (Some(dst), Some(src)) = (
-            dst.get_mut(start..end),
-            row.get(first_x..first_x + end - start),
-        ) {
-            dst.iter_mut()
-                .zip(src)
-                .for_each(|(d, &s)| *d = i16::from(s));
-        }
-        let (first, last) = (row.first(), row.last());
-        let (first, last) = (first.copied().unwrap_or(0), last.copied().unwrap_or(0));
-        dst.iter_mut()
-            .take(start)
-            .for_each(|d| *d = i16::from(first));
-        dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
     }
 }
 
@@ -184,7 +149,7 @@ fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
 }
 
 /// The template's window sums, in 32-bit chunks widened to 64 bits.
-pub(crate) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
+fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
     let mut s = TemplateSums::default();
     let chunks = intensity
         .chunks(CHUNK)

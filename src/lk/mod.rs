@@ -56,7 +56,7 @@ use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use template::{Step, Template, TemplateError};
-use window::{Loops, TemplateBuffers, WindowOrigin};
+use window::{Loops, TemplateBuffers, TemplateOut, WindowOrigin};
 
 /// The window loops this target runs: the flat, padded ones where LLVM vectorises them, the
 /// row-by-row ones on scalar cores. Both give the same results bit for bit.
@@ -485,14 +485,11 @@ impl LucasKanade {
         let values = rest.get_mut(..layout.window_len())?;
         // The patch adds a one-pixel border for the derivatives.
         let origin = WindowOrigin::new(centre.0, centre.1, win / 2 + 1);
-        L::sample_patch(prev, &origin, &layout, source, patch);
-        L::derivatives(patch, &layout, intensity, dx, dy);
-        if !origin.fits(prev, win + 2, win + 2) {
-            window::mask_outside(prev, &origin, &layout, dx, dy);
-        }
-        let illumination = self.params.illumination;
+        let out = TemplateOut { intensity, dx, dy };
+        let sums = L::template(prev, &origin, &layout, (source, patch), out);
         let buffers = TemplateBuffers { intensity, dx, dy };
-        match Template::new(buffers, layout, illumination, self.min_eigen) {
+        let illumination = self.params.illumination;
+        match Template::new(buffers, sums, layout, illumination, self.min_eigen) {
             Ok(t) => Some((t, NextWindow { source, values })),
             Err(TemplateError::LowTexture) => None,
         }

@@ -107,17 +107,18 @@ pub(crate) struct Template<'s, L> {
 }
 
 impl<'s, L: Loops> Template<'s, L> {
-    /// Builds the template from its intensities and derivatives, padding cleared.
+    /// Builds the template from its intensities and derivatives (padding cleared) and their
+    /// window sums.
     ///
     /// `min_eigen` is the smallest acceptable eigenvalue of the gradient matrix in its integer
     /// scale (see [`super::LucasKanade`]).
     pub(crate) fn new(
         buffers: TemplateBuffers<'s>,
+        sums: TemplateSums,
         layout: Layout,
         illumination: Illumination,
         min_eigen: u64,
     ) -> Result<Self, TemplateError> {
-        let sums = L::template_sums(&buffers);
         if !min_eigenvalue_at_least(&sums, min_eigen) {
             return Err(TemplateError::LowTexture);
         }
@@ -234,9 +235,16 @@ impl<'s, L: Loops> Template<'s, L> {
         origin: &WindowOrigin,
         (source, j): (&mut [i16], &mut [i16]),
     ) -> i32 {
-        L::sample_window(frame, origin, &self.layout, source, j);
         let gain_bias = self.illumination == Illumination::GainBias;
-        let m = L::match_sums(j, &self.buffers, gain_bias);
+        let scratch = (&mut *source, &mut *j);
+        let m = L::match_window(
+            frame,
+            origin,
+            &self.layout,
+            scratch,
+            &self.buffers,
+            gain_bias,
+        );
         let gain = self.gain(&m);
         let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.

@@ -61,56 +61,39 @@ pub(crate) trait Loops {
     /// The buffer shapes for a `win` x `win` window.
     fn layout(win: usize) -> Layout;
 
-    /// Samples the template patch, a `win + 2` square at `origin`, into `patch` (grey x 32).
-    /// `source` is scratch of `layout.source_len` values.
-    fn sample_patch(
+    /// Samples the template patch, the `win + 2` square at `origin`, into `patch` (grey x 32)
+    /// and derives the template from it: its intensities (the patch without its one-pixel
+    /// border) and Scharr derivatives, rescaled to the Scharr gain of 32 per grey level per pixel
+    /// (`|value| <= 16 * 255 = 4080`, OpenCV's scale), with the gradients of pixels outside the
+    /// frame zeroed ([`mask_outside`]); padding zero. Returns the template's window sums.
+    /// `scratch` is the source buffer (`layout.source_len` values) and the patch.
+    fn template(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        source: &mut [i16],
-        patch: &mut [i16],
-    );
+        scratch: (&mut [i16], &mut [i16]),
+        out: TemplateOut<'_>,
+    ) -> TemplateSums;
 
-    /// Samples the `win` square at `origin` into the window buffer `out`, padding zero.
-    fn sample_window(
-        frame: &ImageView<'_>,
-        origin: &WindowOrigin,
-        layout: &Layout,
-        source: &mut [i16],
-        out: &mut [i16],
-    );
-
-    /// The template (the patch without its border) and its Scharr derivatives, rescaled to the
-    /// Scharr gain of 32 per grey level per pixel (`|value| <= 16 * 255 = 4080`, OpenCV's scale);
-    /// padding zero.
-    fn derivatives(
-        patch: &[i16],
-        layout: &Layout,
-        intensity: &mut [i16],
-        dx: &mut [i16],
-        dy: &mut [i16],
-    );
-
-    /// The template's window sums.
-    fn template_sums(t: &TemplateBuffers<'_>) -> TemplateSums;
-
-    /// The window sums of the sampled next window `j` against the template; `ΣJ` and `ΣJI` only
-    /// when `gain_bias`.
-    fn match_sums(j: &[i16], t: &TemplateBuffers<'_>, gain_bias: bool) -> MatchSums;
-
-    /// Samples the next window at `origin` and returns its match sums; `source` and `j` are
-    /// scratch (the sampled window may or may not be left in `j`).
+    /// Samples the next window, the `win` square at `origin`, into `j` (padding zero) and
+    /// returns its window sums against the template; `ΣJ` and `ΣJI` only when `gain_bias`.
+    /// `scratch` is the source buffer and `j`.
     fn match_window(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        (source, j): (&mut [i16], &mut [i16]),
+        scratch: (&mut [i16], &mut [i16]),
         t: &TemplateBuffers<'_>,
         gain_bias: bool,
-    ) -> MatchSums {
-        Self::sample_window(frame, origin, layout, source, j);
-        Self::match_sums(j, t, gain_bias)
-    }
+    ) -> MatchSums;
+}
+
+/// The buffers a template is derived into, laid out like [`TemplateBuffers`].
+#[derive(Debug)]
+pub(crate) struct TemplateOut<'s> {
+    pub intensity: &'s mut [i16],
+    pub dx: &'s mut [i16],
+    pub dy: &'s mut [i16],
 }
 
 /// The template's window buffers, laid out alike: intensities (grey x 32) and Scharr gradients.
@@ -187,6 +170,40 @@ pub(crate) fn rescale(s: i32) -> i16 {
     ((s + (1 << (INTENSITY_BITS - 1))) >> INTENSITY_BITS) as i16
 }
 
+/// Copies `rows` x `cols` pixels from `origin` into `out` (row-major, `cols` apart), repeating
+/// edge pixels outside the frame.
+pub(crate) fn gather(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    rows: usize,
+    cols: usize,
+    out: &mut [i16],
+) {
+    let (width, height) = (frame.width() as isize, frame.height() as isize);
+    // The part of each row that lies in the frame, as offsets into the row.
+    let start = (-origin.x).clamp(0, cols as isize) as usize;
+    let end = (width - origin.x).clamp(start as isize, cols as isize) as usize;
+    let first_x = (origin.x + start as isize).max(0) as usize;
+    for (r, dst) in out.chunks_exact_mut(cols).take(rows).enumerate() {
+        let y = (origin.y + r as isize).clamp(0, height - 1) as usize;
+        let row = frame.row(y);
+        if let (Some(dst), Some(src)) = (
+            dst.get_mut(start..end),
+            row.get(first_x..first_x + end - start),
+        ) {
+            dst.iter_mut()
+                .zip(src)
+                .for_each(|(d, &s)| *d = i16::from(s));
+        }
+        let (first, last) = (row.first(), row.last());
+        let (first, last) = (first.copied().unwrap_or(0), last.copied().unwrap_or(0));
+        dst.iter_mut()
+            .take(start)
+            .for_each(|d| *d = i16::from(first));
+        dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
+    }
+}
+
 /// Zeroes the gradients of template pixels that lie outside `frame`.
 ///
 /// Outside the frame the sampler repeats edge pixels, which do not move with the scene; with
@@ -260,23 +277,35 @@ mod tests {
         out
     }
 
+    /// A flat, textured template for sampling windows against.
+    const PLAIN: [i16; 4096] = [100; 4096];
+
     /// Samples a `side` x `side` window centred at `(cx, cy)` (Q16 bits), padding dropped.
     fn window<L: Loops>(frame: &ImageView<'_>, cx: i32, cy: i32, side: usize) -> [i16; 63 * 63] {
         let layout = L::layout(side);
         let mut source = [0i16; 4096];
         let mut out = [0i16; 4096];
         let origin = WindowOrigin::new(cx, cy, side / 2);
-        L::sample_window(frame, &origin, &layout, &mut source, &mut out);
+        let n = layout.window_len();
+        let t = TemplateBuffers {
+            intensity: &PLAIN[..n],
+            dx: &PLAIN[..n],
+            dy: &PLAIN[..n],
+        };
+        let scratch = (&mut source[..], &mut out[..n]);
+        L::match_window(frame, &origin, &layout, scratch, &t, true);
         packed(&layout, &out)
     }
 
-    /// Everything a template computes at a centre: intensity, gradients and sums, unpadded.
+    /// Everything a template computes at a centre: intensity, gradients and sums, unpadded, and
+    /// the sums and samples of a window half a pixel off matched against it.
     struct TemplateParts {
         intensity: [i16; 63 * 63],
         dx: [i16; 63 * 63],
         dy: [i16; 63 * 63],
         sums: TemplateSums,
-        matched: MatchSums,
+        matched: [MatchSums; 2],
+        next: [i16; 63 * 63],
     }
 
     fn template<L: Loops>(frame: &ImageView<'_>, c: (i32, i32), win: usize) -> TemplateParts {
@@ -285,34 +314,30 @@ mod tests {
         let mut patch = [0i16; 4096];
         let [mut i, mut dx, mut dy, mut j] = [[0i16; 4096]; 4];
         let origin = WindowOrigin::new(c.0, c.1, win / 2 + 1);
-        L::sample_patch(frame, &origin, &layout, &mut source, &mut patch);
         let n = layout.window_len();
-        L::derivatives(&patch, &layout, &mut i[..n], &mut dx[..n], &mut dy[..n]);
-        // A next window half a pixel off, matched against the template.
-        let next = WindowOrigin::new(c.0 + 32768, c.1 - 16384, win / 2);
-        L::sample_window(frame, &next, &layout, &mut source, &mut j[..n]);
+        let out = TemplateOut {
+            intensity: &mut i[..n],
+            dx: &mut dx[..n],
+            dy: &mut dy[..n],
+        };
+        let sums = L::template(frame, &origin, &layout, (&mut source, &mut patch), out);
         let t = TemplateBuffers {
             intensity: &i[..n],
             dx: &dx[..n],
             dy: &dy[..n],
         };
-        let matched = L::match_sums(&j[..n], &t, true);
-        let mut scratch = ([0i16; 4096], [0i16; 4096]);
-        let fused = L::match_window(
-            frame,
-            &next,
-            &layout,
-            (&mut scratch.0, &mut scratch.1[..n]),
-            &t,
-            true,
-        );
-        assert_eq!(fused, matched);
+        let next = WindowOrigin::new(c.0 + 32768, c.1 - 16384, win / 2);
+        let matched = [false, true].map(|gain_bias| {
+            let scratch = (&mut source[..], &mut j[..n]);
+            L::match_window(frame, &next, &layout, scratch, &t, gain_bias)
+        });
         TemplateParts {
             intensity: packed(&layout, t.intensity),
             dx: packed(&layout, t.dx),
             dy: packed(&layout, t.dy),
-            sums: L::template_sums(&t),
+            sums,
             matched,
+            next: packed(&layout, &j[..n]),
         }
     }
 
@@ -386,8 +411,15 @@ mod tests {
         let layout = Flat::layout(5);
         let (mut source, mut out) = ([0i16; 256], [-1i16; 256]);
         let origin = WindowOrigin::new(20 << 16, 15 << 16, 2);
-        Flat::sample_window(&frame, &origin, &layout, &mut source, &mut out);
-        for row in out[..layout.window_len()].chunks_exact(layout.pitch) {
+        let n = layout.window_len();
+        let t = TemplateBuffers {
+            intensity: &PLAIN[..n],
+            dx: &PLAIN[..n],
+            dy: &PLAIN[..n],
+        };
+        let scratch = (&mut source[..], &mut out[..n]);
+        Flat::match_window(&frame, &origin, &layout, scratch, &t, true);
+        for row in out[..n].chunks_exact(layout.pitch) {
             assert_eq!(row[5..], [0, 0, 0]);
         }
     }
@@ -419,6 +451,7 @@ mod tests {
                         assert_eq!(f.dy, r.dy, "{at:?}");
                         assert_eq!(f.sums, r.sums, "{at:?}");
                         assert_eq!(f.matched, r.matched, "{at:?}");
+                        assert_eq!(f.next, r.next, "{at:?}");
                     }
                 }
             }

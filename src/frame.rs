@@ -166,6 +166,12 @@ impl<'a> ImageView<'a> {
         self.data.get(start..start + self.width).unwrap_or(&[])
     }
 
+    /// The whole buffer: row `y` starts at `y * stride()`.
+    #[inline]
+    pub(crate) fn pixels(&self) -> &'a [u8] {
+        self.data
+    }
+
     /// The pixel at (`x`, `y`), or `None` outside the image.
     ///
     /// ```

@@ -12,16 +12,24 @@
 //!
 //! # Integer widths
 //!
-//! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
-//! `8160^2 = 66_585_600`, so [`CHUNK`] = 64 consecutive products sum to at most `4_261_478_400`:
-//! below `u32::MAX` for `I*J` (both non-negative) and, for the signed products
-//! (`|I*Ix| <= 33_292_800`, 64 of them `<= 2_130_739_200`), below `i32::MAX`. Chunk sums are
-//! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
-//! Products of window sums go through `i128`.
+//! Window sums are exact: intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`, and
+//! each set of window loops proves its own accumulator widths (`flat.rs`, `rows.rs`). Over the
+//! largest window (`n = 63 x 63 = 3969 < 2^12`) the sums are bounded by
+//!
+//! - `|ΣJ·Ix|, |ΣI·Ix| <= n * 8160 * 4080 < 2^37`, `ΣJI, ΣI² <= n * 8160^2 < 2^38`,
+//! - `ΣJ, ΣI <= n * 8160 < 2^25`, `|ΣIx| <= n * 4080 < 2^24`, `gxx, gyy <= n * 4080^2 < 2^36`.
+//!
+//! An iteration's products of sums therefore fit `i64`: `n ΣJ·Ix - ΣJ ΣIx` and
+//! `n ΣI·Ix - ΣI ΣIx` below `2^50`, the gain covariance below `2^51`, the mismatch `b` below
+//! `2^53` (see [`Template::step`]). Only the template's determinant (`< 2^72`, times `n` in
+//! gain-bias mode) and variance need `i128`, once per template.
 
-use super::wide::Reciprocal;
-use super::window::{Layout, INTENSITY_BITS};
+use core::marker::PhantomData;
+
+use super::wide::{round_shift, to_i32, Fractions, Reciprocal};
+use super::window::{Layout, Loops, TemplateBuffers, WindowOrigin, INTENSITY_BITS};
 use super::Illumination;
+use crate::frame::ImageView;
 
 /// The gain estimate is clamped to `[1/4, 4]` (Q16): no lighting change between two frames of a
 /// flight is larger, and the clamp keeps a mismatched window from producing a wild step.
@@ -35,35 +43,33 @@ const GAIN_MAX: i64 = 1 << 18;
 /// the variance pulls the gain towards 1 on windows whose contrast is comparable to sensor noise
 /// (where a gain change is invisible anyway; the bias still absorbs the offset) and leaves it
 /// unchanged on textured windows.
-const GAIN_RIDGE: i128 = (2 * 32) * (2 * 32);
+const GAIN_RIDGE: i64 = (2 * 32) * (2 * 32);
 const ONE: i64 = 1 << 16;
 
-/// Products summed in 32 bits before widening: the most that provably cannot overflow.
-const CHUNK: usize = 64;
-
 /// Window sums of the template that every iteration needs.
-#[derive(Debug, Clone, Copy, Default)]
-struct TemplateSums {
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct TemplateSums {
     /// Gradient matrix `[gxx gxy; gxy gyy]`.
-    gxx: i64,
-    gxy: i64,
-    gyy: i64,
+    pub gxx: i64,
+    pub gxy: i64,
+    pub gyy: i64,
     /// `ΣI`, `ΣI²`, `ΣIx`, `ΣIy`, `ΣI·Ix`, `ΣI·Iy`.
-    si: i64,
-    sii: i64,
-    sx: i64,
-    sy: i64,
-    six: i64,
-    siy: i64,
+    pub si: i64,
+    pub sii: i64,
+    pub sx: i64,
+    pub sy: i64,
+    pub six: i64,
+    pub siy: i64,
 }
 
-/// Window sums that involve the next frame `J`.
-#[derive(Debug, Clone, Copy, Default)]
-struct MatchSums {
-    sj: i64,
-    sji: i64,
-    sjx: i64,
-    sjy: i64,
+/// Window sums that involve the next frame `J`: `ΣJ`, `ΣJI` (gain and bias only), `ΣJ·Ix`,
+/// `ΣJ·Iy`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct MatchSums {
+    pub sj: i64,
+    pub sji: i64,
+    pub sjx: i64,
+    pub sjy: i64,
 }
 
 /// Why a template cannot be used at this level.
@@ -80,96 +86,126 @@ pub(crate) struct Step {
     pub dy: i32,
 }
 
-/// A point's window at one level with its precomputed solve.
-pub(crate) struct Template<'s> {
+/// A point's window at one level with its precomputed solve, for the window loops `L`.
+pub(crate) struct Template<'s, L> {
     layout: Layout,
-    /// The template intensities, laid out like the gradients and `J` (padding zero).
-    intensity: &'s [i16],
-    dx: &'s [i16],
-    dy: &'s [i16],
+    /// The template intensities and gradients, laid out like `J` (padding zero).
+    buffers: TemplateBuffers<'s>,
     sums: TemplateSums,
     illumination: Illumination,
-    /// `1 / det(G)` (plain) or `1 / (n det(G))` (gain and bias).
-    solve: Reciprocal,
+    /// Window area `n`.
+    n: i64,
+    /// `adj(G) / det(G)` (plain) or `adj(G) / (n det(G))` (gain and bias): `[gyy, gxy, gxx]`
+    /// over the determinant.
+    inverse: Fractions<3>,
     /// `1 / (n ΣI² - (ΣI)² + n² ridge)`, for the gain fit.
-    variance: Option<Reciprocal>,
+    variance: Option<Fractions<1>>,
+    /// `n ΣI·Ix - ΣI ΣIx` and the same for `y` (gain and bias), split for exact `i64` products
+    /// with the gain: `(value >> 16, value & 0xFFFF)`.
+    centred_ig: [(i64, i64); 2],
+    loops: PhantomData<L>,
 }
 
-impl<'s> Template<'s> {
-    /// Builds the template from its intensities and derivatives, padding cleared.
+impl<'s, L: Loops> Template<'s, L> {
+    /// Builds the template from its intensities and derivatives (padding cleared) and their
+    /// window sums.
     ///
     /// `min_eigen` is the smallest acceptable eigenvalue of the gradient matrix in its integer
     /// scale (see [`super::LucasKanade`]).
     pub(crate) fn new(
-        intensity: &'s [i16],
-        dx: &'s [i16],
-        dy: &'s [i16],
+        buffers: TemplateBuffers<'s>,
+        sums: TemplateSums,
         layout: Layout,
         illumination: Illumination,
         min_eigen: u64,
     ) -> Result<Self, TemplateError> {
-        let sums = template_sums(intensity, dx, dy);
         if !min_eigenvalue_at_least(&sums, min_eigen) {
             return Err(TemplateError::LowTexture);
         }
-        let det = sums.gxx as i128 * sums.gyy as i128 - sums.gxy as i128 * sums.gxy as i128;
-        let n = (layout.win * layout.win) as i128;
+        let det = i128::from(sums.gxx) * i128::from(sums.gyy) - i128::from(sums.gxy).pow(2);
+        let n = (layout.win * layout.win) as i64;
         let scaled_det = match illumination {
             Illumination::Plain => det,
-            Illumination::GainBias => det * n,
+            Illumination::GainBias => det * i128::from(n),
         };
-        let solve = u128::try_from(scaled_det)
+        let inverse = u128::try_from(scaled_det)
             .ok()
             .and_then(Reciprocal::of)
-            .ok_or(TemplateError::LowTexture)?;
-        let variance_n = n * sums.sii as i128 - sums.si as i128 * sums.si as i128;
-        let variance = u128::try_from(variance_n + n * n * GAIN_RIDGE)
+            .ok_or(TemplateError::LowTexture)?
+            .fractions([sums.gyy, sums.gxy, sums.gxx]);
+        let variance_n = i128::from(n) * i128::from(sums.sii) - i128::from(sums.si).pow(2);
+        let ridge = i128::from(n * n * GAIN_RIDGE);
+        let variance = u128::try_from(variance_n + ridge)
             .ok()
-            .and_then(Reciprocal::of);
+            .and_then(Reciprocal::of)
+            .map(|r| r.fractions([1]));
+        let centred = |sig: i64, sg: i64| {
+            let ig = n * sig - sums.si * sg;
+            (ig >> 16, ig & 0xFFFF)
+        };
         Ok(Self {
             layout,
-            intensity,
-            dx,
-            dy,
+            buffers,
             sums,
             illumination,
-            solve,
+            n,
+            inverse,
             variance,
+            centred_ig: [centred(sums.six, sums.sx), centred(sums.siy, sums.sy)],
+            loops: PhantomData,
         })
     }
 
-    fn n(&self) -> i128 {
-        (self.layout.win * self.layout.win) as i128
-    }
-
-    /// One LK step for the next-frame window `j` sampled at the current estimate.
-    pub(crate) fn step(&self, j: &[i16]) -> Step {
-        let m = self.match_sums(j);
-        let s = &self.sums;
-        // b = Σ residual * ∇I, scaled by n in gain-bias mode.
-        let (bx, by) = match self.illumination {
-            Illumination::Plain => ((m.sjx - s.six) as i128, (m.sjy - s.siy) as i128),
-            Illumination::GainBias => {
-                let n = self.n();
-                let gain = self.gain(&m) as i128;
-                let centred = |sjg: i64, sg: i64, sig: i64| {
-                    let jg = n * sjg as i128 - m.sj as i128 * sg as i128;
-                    let ig = n * sig as i128 - s.si as i128 * sg as i128;
-                    jg - ((gain * ig) >> 16)
-                };
-                (centred(m.sjx, s.sx, s.six), centred(m.sjy, s.sy, s.siy))
-            }
-        };
-        // delta = -G^-1 b, with G^-1 = adj(G) / det(G).
-        let ux = s.gyy as i128 * bx - s.gxy as i128 * by;
-        let uy = s.gxx as i128 * by - s.gxy as i128 * bx;
-        let to_step = |u: i128| {
-            let v = -self.solve.scale(u, 16);
+    /// One LK step for the next frame's window at `origin`; `scratch` is the source and window
+    /// scratch of the window loops.
+    pub(crate) fn step(
+        &self,
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        scratch: (&mut [i16], &mut [i16]),
+    ) -> Step {
+        let gain_bias = self.illumination == Illumination::GainBias;
+        let m = L::match_window(
+            frame,
+            origin,
+            &self.layout,
+            scratch,
+            &self.buffers,
+            gain_bias,
+        );
+        let (bx, by) = self.mismatch(&m);
+        // delta = -G^-1 b, with G^-1 = adj(G) / det(G); b scaled to i32 so that each product
+        // with a coefficient (< 2^30) stays below 2^60.
+        let (bx, by, e) = to_i32(bx, by);
+        let [yy, xy, xx] = self.inverse.values;
+        let product = |c: i32, b: i32| i64::from(c) * i64::from(b);
+        let to_step = |u: i64| {
+            let v = -round_shift(u, self.inverse.shift - 16 - e as i32);
             v.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
         };
         Step {
-            dx: to_step(ux),
-            dy: to_step(uy),
+            dx: to_step(product(yy, bx) - product(xy, by)),
+            dy: to_step(product(xx, by) - product(xy, bx)),
+        }
+    }
+
+    /// The mismatch vector `b = Σ residual ∇I`, scaled by `n` in gain-bias mode; `|b| < 2^53`.
+    fn mismatch(&self, m: &MatchSums) -> (i64, i64) {
+        let s = &self.sums;
+        match self.illumination {
+            // Each term below 2^37.
+            Illumination::Plain => (m.sjx - s.six, m.sjy - s.siy),
+            Illumination::GainBias => {
+                let (n, gain) = (self.n, self.gain(m));
+                // n ΣJ·Ig - ΣJ ΣIg - gain (n ΣI·Ig - ΣI ΣIg) / 2^16: the first two terms below
+                // 2^50; the gain (<= 2^18) times the split centred sum below 2^52 and 2^34.
+                let centred = |sjg: i64, sg: i64, (ig_high, ig_low): (i64, i64)| {
+                    let jg = n * sjg - m.sj * sg;
+                    jg - (gain * ig_high + ((gain * ig_low) >> 16))
+                };
+                let [igx, igy] = self.centred_ig;
+                (centred(m.sjx, s.sx, igx), centred(m.sjy, s.sy, igy))
+            }
         }
     }
 
@@ -182,27 +218,43 @@ impl<'s> Template<'s> {
         if self.illumination == Illumination::Plain {
             return ONE;
         }
-        let s = &self.sums;
-        let n = self.n();
-        let covariance = n * m.sji as i128 - m.sj as i128 * s.si as i128;
-        variance
-            .scale(covariance + n * n * GAIN_RIDGE, 16)
-            .clamp(GAIN_MIN, GAIN_MAX)
+        let n = self.n;
+        // n ΣJI - ΣJ ΣI + n² ridge: each term below 2^50.
+        let covariance = n * m.sji - m.sj * self.sums.si + n * n * GAIN_RIDGE;
+        let (covariance, _, e) = to_i32(covariance, 0);
+        let [inverse] = variance.values;
+        let gain = i64::from(covariance) * i64::from(inverse);
+        round_shift(gain, variance.shift - 16 - e as i32).clamp(GAIN_MIN, GAIN_MAX)
     }
 
-    /// Mean absolute residual over the window in grey levels (Q16 raw bits), after the gain and
-    /// bias correction in gain-bias mode.
-    pub(crate) fn residual(&self, j: &[i16]) -> i32 {
-        let m = self.match_sums(j);
+    /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
+    /// bits), after the gain and bias correction in gain-bias mode.
+    pub(crate) fn residual(
+        &self,
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        (source, j): (&mut [i16], &mut [i16]),
+    ) -> i32 {
+        let gain_bias = self.illumination == Illumination::GainBias;
+        let scratch = (&mut *source, &mut *j);
+        let m = L::match_window(
+            frame,
+            origin,
+            &self.layout,
+            scratch,
+            &self.buffers,
+            gain_bias,
+        );
         let gain = self.gain(&m);
-        let n = self.n() as i64;
+        let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
         let bias = match self.illumination {
             Illumination::Plain => 0,
             Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
         };
         let mut total: i64 = 0;
-        let rows = self.layout.rows(self.intensity).zip(self.layout.rows(j));
+        let rows = self.layout.rows(self.buffers.intensity);
+        let rows = rows.zip(self.layout.rows(j));
         for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
                 let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
@@ -213,69 +265,6 @@ impl<'s> Template<'s> {
         let mean = total / (n << INTENSITY_BITS);
         mean.min(i32::MAX as i64) as i32
     }
-
-    fn match_sums(&self, j: &[i16]) -> MatchSums {
-        let mut m = MatchSums::default();
-        let chunks = j
-            .chunks(CHUNK)
-            .zip(self.intensity.chunks(CHUNK))
-            .zip(self.dx.chunks(CHUNK).zip(self.dy.chunks(CHUNK)));
-        for ((j, i), (gx, gy)) in chunks {
-            // Exact in 32 bits for 64 products (module docs).
-            let (mut sjx, mut sjy) = (0i32, 0i32);
-            for ((&jv, &gx), &gy) in j.iter().zip(gx).zip(gy) {
-                sjx += i32::from(jv) * i32::from(gx);
-                sjy += i32::from(jv) * i32::from(gy);
-            }
-            m.sjx += i64::from(sjx);
-            m.sjy += i64::from(sjy);
-            if self.illumination == Illumination::GainBias {
-                let (mut sj, mut sji) = (0i32, 0u32);
-                for (&jv, &i) in j.iter().zip(i) {
-                    sj += i32::from(jv);
-                    sji += (i32::from(jv) * i32::from(i)) as u32;
-                }
-                m.sj += i64::from(sj);
-                m.sji += i64::from(sji);
-            }
-        }
-        m
-    }
-}
-
-fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    let mut s = TemplateSums::default();
-    let chunks = intensity
-        .chunks(CHUNK)
-        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
-    for (i_chunk, (x_chunk, y_chunk)) in chunks {
-        // Exact in 32 bits for 64 products (module docs).
-        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
-        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
-            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
-        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
-            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
-            gxx += gx * gx;
-            gxy += gx * gy;
-            gyy += gy * gy;
-            si += i;
-            sii += (i * i) as u32;
-            sx += gx;
-            sy += gy;
-            six += i * gx;
-            siy += i * gy;
-        }
-        s.gxx += i64::from(gxx);
-        s.gxy += i64::from(gxy);
-        s.gyy += i64::from(gyy);
-        s.si += i64::from(si);
-        s.sii += i64::from(sii);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-        s.six += i64::from(six);
-        s.siy += i64::from(siy);
-    }
-    s
 }
 
 /// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and
@@ -315,50 +304,6 @@ mod tests {
                     "G = [{a} {b}; {b} {c}], tau {tau}"
                 );
             }
-        }
-    }
-}
-
-#[cfg(test)]
-mod width_tests {
-    use super::*;
-
-    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values the
-    /// sampler and the Scharr filter can produce, checked against 128-bit arithmetic.
-    #[test]
-    fn window_sums_are_exact_at_the_extremes() {
-        const SIDE: usize = super::super::MAX_WINDOW;
-        // A window buffer without padding: every value counts.
-        let intensity = [8160i16; SIDE * SIDE];
-        for (gx_sign, gy_sign) in [(1i16, 1i16), (1, -1), (-1, -1)] {
-            let dx = [4080 * gx_sign; SIDE * SIDE];
-            let dy = [4080 * gy_sign; SIDE * SIDE];
-            let s = template_sums(&intensity, &dx, &dy);
-            let n = (SIDE * SIDE) as i128;
-            let (gx, gy) = (4080 * gx_sign as i128, 4080 * gy_sign as i128);
-            assert_eq!(s.gxx as i128, n * gx * gx);
-            assert_eq!(s.gxy as i128, n * gx * gy);
-            assert_eq!(s.sii as i128, n * 8160 * 8160);
-            assert_eq!(s.six as i128, n * 8160 * gx);
-            assert_eq!(s.siy as i128, n * 8160 * gy);
-            let template = Template {
-                layout: Layout {
-                    win: SIDE,
-                    pitch: SIDE,
-                },
-                intensity: &intensity,
-                dx: &dx,
-                dy: &dy,
-                sums: s,
-                illumination: Illumination::GainBias,
-                solve: Reciprocal::of(1).unwrap(),
-                variance: None,
-            };
-            let j = [8160i16; SIDE * SIDE];
-            let m = template.match_sums(&j);
-            assert_eq!(m.sji as i128, n * 8160 * 8160);
-            assert_eq!(m.sjx as i128, n * 8160 * gx);
-            assert_eq!(m.sjy as i128, n * 8160 * gy);
         }
     }
 }

@@ -1,66 +1,50 @@
-//! Sub-pixel window sampling and Scharr derivatives.
+//! Window geometry shared by both sets of window loops: buffer shapes, where a window sits in
+//! the frame with its bilinear weights, and the border mask.
 //!
 //! Windows are sampled with bilinear weights of 14 fractional bits and kept as grey x 32
 //! (5 fractional bits), the precision OpenCV uses; dropping those bits costs 2-5x in accuracy on
 //! weak texture. Pixels outside the frame repeat the nearest edge pixel, so points near the border
 //! keep their whole window.
 //!
-//! Every window buffer is row-major with a pitch of `window + 3` ([`Layout`]): the columns past
-//! the window are padding, kept at zero where they would enter a sum. Sampling, derivatives and
-//! window sums are then single flat loops over `rows * pitch` values, which vectorise without a
-//! scalar tail per row (a 21-px row would leave one of 5 px).
-//!
 //! Derivatives are taken on the interpolated template patch instead of on the whole frame.
 //! Interpolation and the Scharr filter are both linear and shift-invariant, so the result equals
 //! interpolating a full derivative image (up to rounding), without the two i16 planes per level
 //! that a full derivative image would cost in RAM.
+//!
+//! Two implementations of the loops compute the same values bit for bit ([`Loops`]):
+//! [`super::flat`] is shaped for SIMD units (padded rows, flat loops), [`super::rows`] for scalar
+//! cores such as the Cortex-M4 (packed rows, pixels read straight from the frame).
 
+use super::template::{MatchSums, TemplateSums};
 use crate::frame::ImageView;
 
 /// Fractional bits of the bilinear weights.
-const WEIGHT_BITS: u32 = 14;
+pub(crate) const WEIGHT_BITS: u32 = 14;
 /// Fractional bits kept in sampled intensities (grey x 32).
 pub(crate) const INTENSITY_BITS: u32 = 5;
 
-/// The shape of every window buffer for one window size.
+/// The shape of every buffer for one window size.
+///
+/// Window buffers (template, gradients, next-frame window) are row-major, `pitch` values apart;
+/// columns past the window are padding, zero wherever they would enter a sum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Layout {
     /// Window side in pixels.
     pub win: usize,
-    /// Distance between rows in every buffer: the window, its two derivative border columns and
-    /// the bilinear neighbour of the last one.
+    /// Distance between rows of the window buffers.
     pub pitch: usize,
+    /// Distance between rows of the template patch (the window and a one-pixel border).
+    pub patch_pitch: usize,
+    /// Values in the template patch buffer.
+    pub patch_len: usize,
+    /// Values in the buffer that source pixels are gathered into (zero when unused).
+    pub source_len: usize,
 }
 
 impl Layout {
-    pub(crate) const fn new(win: usize) -> Self {
-        Self {
-            win,
-            pitch: win + 3,
-        }
-    }
-
-    /// Values in a window buffer (template, gradients, next-frame window).
+    /// Values in a window buffer.
     pub(crate) const fn window_len(&self) -> usize {
         self.win * self.pitch
-    }
-
-    /// Values in the template patch (window plus a one-pixel border), with two values of slack
-    /// for the flat Scharr loop's last reads.
-    pub(crate) const fn patch_len(&self) -> usize {
-        (self.win + 2) * self.pitch + 2
-    }
-
-    /// Values in the gathered source pixels of a patch: one more row, one value of slack.
-    pub(crate) const fn source_len(&self) -> usize {
-        (self.win + 3) * self.pitch + 1
-    }
-
-    /// Zeroes the padding columns of a window buffer so they add nothing to window sums.
-    pub(crate) fn clear_padding(&self, buf: &mut [i16]) {
-        for row in buf.chunks_exact_mut(self.pitch) {
-            row.iter_mut().skip(self.win).for_each(|v| *v = 0);
-        }
     }
 
     /// The window's values of each row of a window buffer, without the padding.
@@ -71,16 +55,65 @@ impl Layout {
     }
 }
 
+/// One implementation of the window loops. Both give the same values bit for bit; they differ
+/// in buffer layout and loop shape only.
+pub(crate) trait Loops {
+    /// The buffer shapes for a `win` x `win` window.
+    fn layout(win: usize) -> Layout;
+
+    /// Samples the template patch, the `win + 2` square at `origin`, into `patch` (grey x 32)
+    /// and derives the template from it: its intensities (the patch without its one-pixel
+    /// border) and Scharr derivatives, rescaled to the Scharr gain of 32 per grey level per pixel
+    /// (`|value| <= 16 * 255 = 4080`, OpenCV's scale), with the gradients of pixels outside the
+    /// frame zeroed ([`mask_outside`]); padding zero. Returns the template's window sums.
+    /// `scratch` is the source buffer (`layout.source_len` values) and the patch.
+    fn template(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        scratch: (&mut [i16], &mut [i16]),
+        out: TemplateOut<'_>,
+    ) -> TemplateSums;
+
+    /// Samples the next window, the `win` square at `origin`, into `j` (padding zero) and
+    /// returns its window sums against the template; `ΣJ` and `ΣJI` only when `gain_bias`.
+    /// `scratch` is the source buffer and `j`.
+    fn match_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        scratch: (&mut [i16], &mut [i16]),
+        t: &TemplateBuffers<'_>,
+        gain_bias: bool,
+    ) -> MatchSums;
+}
+
+/// The buffers a template is derived into, laid out like [`TemplateBuffers`].
+#[derive(Debug)]
+pub(crate) struct TemplateOut<'s> {
+    pub intensity: &'s mut [i16],
+    pub dx: &'s mut [i16],
+    pub dy: &'s mut [i16],
+}
+
+/// The template's window buffers, laid out alike: intensities (grey x 32) and Scharr gradients.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TemplateBuffers<'s> {
+    pub intensity: &'s [i16],
+    pub dx: &'s [i16],
+    pub dy: &'s [i16],
+}
+
 /// Where a window starts in the frame and how its samples are interpolated.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct WindowOrigin {
     /// Column of the top-left source pixel (may be negative or past the edge).
-    x: isize,
+    pub x: isize,
     /// Row of the top-left source pixel.
-    y: isize,
+    pub y: isize,
     /// Bilinear weights of the four neighbours; they sum to `2^14`. Kept as `i16` so that
     /// weight x pixel products are 16 x 16-bit multiplies, which vectorise on every SIMD ISA.
-    w: [i16; 4],
+    pub w: [i16; 4],
 }
 
 impl WindowOrigin {
@@ -121,43 +154,31 @@ impl WindowOrigin {
     }
 }
 
-/// Samples `rows` rows of `layout.pitch` values of `frame` at `origin` into `out` (grey x 32).
-///
-/// `source` receives the `(rows + 1) x pitch` pixels under the window first (edge pixels repeat
-/// outside the frame), so the interpolation is one flat loop. Only the first `pitch - 1` values of
-/// each output row are meaningful; callers clear or ignore the rest.
-pub(crate) fn sample(
-    frame: &ImageView<'_>,
-    origin: &WindowOrigin,
-    rows: usize,
-    layout: &Layout,
-    source: &mut [i16],
-    out: &mut [i16],
-) {
-    let pitch = layout.pitch;
-    gather(frame, origin, rows + 1, pitch, source);
-    if let Some(slack) = source.get_mut((rows + 1) * pitch) {
-        *slack = 0;
-    }
-    let n = rows * pitch;
-    let [w00, w01, w10, w11] = origin.w.map(i32::from);
-    let run = |k: usize| source.get(k..k + n).unwrap_or(&[]);
-    // Four equal-length shifted runs (pixel, right, below, below-right) vectorise cleanly.
-    let quads = run(0)
-        .iter()
-        .zip(run(1))
-        .zip(run(pitch).iter().zip(run(pitch + 1)));
+/// One bilinear sample, grey x 32, from the pixel, its right neighbour, the one below and the
+/// one below-right. Both sets of loops round exactly this way.
+#[inline(always)]
+pub(crate) fn bilinear([w00, w01, w10, w11]: [i32; 4], a: i32, b: i32, c: i32, d: i32) -> i16 {
     let round = 1 << (WEIGHT_BITS - INTENSITY_BITS - 1);
-    for (o, ((&a, &b), (&c, &d))) in out.iter_mut().take(n).zip(quads) {
-        let [a, b, c, d] = [a, b, c, d].map(i32::from);
-        let sum = w00 * a + w01 * b + w10 * c + w11 * d;
-        *o = ((sum + round) >> (WEIGHT_BITS - INTENSITY_BITS)) as i16;
-    }
+    let sum = w00 * a + w01 * b + w10 * c + w11 * d;
+    ((sum + round) >> (WEIGHT_BITS - INTENSITY_BITS)) as i16
+}
+
+/// Drops the intensity bits of a Scharr sum of grey x 32 samples (`|s| <= 16 * 8160`), rounding:
+/// the result is at the Scharr gain of 32 per grey level (`<= 4080`).
+#[inline(always)]
+pub(crate) fn rescale(s: i32) -> i16 {
+    ((s + (1 << (INTENSITY_BITS - 1))) >> INTENSITY_BITS) as i16
 }
 
 /// Copies `rows` x `cols` pixels from `origin` into `out` (row-major, `cols` apart), repeating
 /// edge pixels outside the frame.
-fn gather(frame: &ImageView<'_>, origin: &WindowOrigin, rows: usize, cols: usize, out: &mut [i16]) {
+pub(crate) fn gather(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    rows: usize,
+    cols: usize,
+    out: &mut [i16],
+) {
     let (width, height) = (frame.width() as isize, frame.height() as isize);
     // The part of each row that lies in the frame, as offsets into the row.
     let start = (-origin.x).clamp(0, cols as isize) as usize;
@@ -223,123 +244,217 @@ pub(crate) fn mask_outside(
     }
 }
 
-/// Copies the template (the patch without its one-pixel border) into `out`, padding cleared.
-pub(crate) fn inner(patch: &[i16], layout: &Layout, out: &mut [i16]) {
-    let n = layout.window_len();
-    if let Some(src) = patch.get(layout.pitch + 1..layout.pitch + 1 + n) {
-        out.iter_mut().zip(src).for_each(|(d, &s)| *d = s);
-    }
-    layout.clear_padding(out);
-}
-
-/// Scharr derivatives of the template inside its patch, padding cleared.
-///
-/// The patch holds grey x 32; the outputs are rescaled to the Scharr gain of 32 per grey level
-/// per pixel (`|value| <= 16 * 255 = 4080`), the scale OpenCV's LK works in.
-pub(crate) fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
-    let (n, p) = (layout.window_len(), layout.pitch);
-    // Output k is the template pixel whose patch neighbourhood starts at patch[k].
-    let run = |k: usize| patch.get(k..k + n).unwrap_or(&[]);
-    let w = |v: &i16| i32::from(*v);
-    // |s| <= 16 * 8160; dropping the 5 intensity bits brings it back to <= 4080.
-    let rescale = |s: i32| ((s + (1 << (INTENSITY_BITS - 1))) >> INTENSITY_BITS) as i16;
-    let (ul, uc, ur) = (run(0), run(1), run(2));
-    let (ml, mr) = (run(p), run(p + 2));
-    let (dl, dc, dr) = (run(2 * p), run(2 * p + 1), run(2 * p + 2));
-    let horizontal = ul
-        .iter()
-        .zip(ur)
-        .zip(ml.iter().zip(mr))
-        .zip(dl.iter().zip(dr));
-    for (gx, (((a, b), (c, d)), (e, f))) in dx.iter_mut().zip(horizontal) {
-        *gx = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
-    }
-    let vertical = ul
-        .iter()
-        .zip(dl)
-        .zip(uc.iter().zip(dc))
-        .zip(ur.iter().zip(dr));
-    for (gy, (((a, b), (c, d)), (e, f))) in dy.iter_mut().zip(vertical) {
-        *gy = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
-    }
-    layout.clear_padding(dx);
-    layout.clear_padding(dy);
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::flat::Flat;
+    use super::super::rows::Rows;
     use super::*;
 
     fn ramp() -> [u8; 64 * 64] {
         core::array::from_fn(|i| ((i % 64) * 3 + i / 64) as u8)
     }
 
-    /// Samples a `side` x `side` window centred at `(cx, cy)` (Q16 bits), padding dropped.
-    fn window(frame: &ImageView<'_>, cx: i32, cy: i32, side: usize) -> [i16; 81] {
-        let layout = Layout::new(side);
-        let mut source = [0i16; 256];
-        let mut out = [0i16; 128];
-        let origin = WindowOrigin::new(cx, cy, side / 2);
-        sample(frame, &origin, side, &layout, &mut source, &mut out);
-        let mut packed = [0i16; 81];
-        for (r, row) in layout.rows(&out).take(side).enumerate() {
-            packed[r * side..(r + 1) * side].copy_from_slice(row);
+    /// Pseudo-random pixels: texture at every scale, including the extremes 0 and 255.
+    fn noise<const N: usize>(seed: u32) -> [u8; N] {
+        let mut state = seed;
+        core::array::from_fn(|_| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            match state >> 29 {
+                0 => 0,
+                1 => 255,
+                _ => (state >> 24) as u8,
+            }
+        })
+    }
+
+    /// The window's values row after row, padding dropped.
+    fn packed(layout: &Layout, buf: &[i16]) -> [i16; 63 * 63] {
+        let mut out = [0i16; 63 * 63];
+        let win = layout.win;
+        for (r, row) in layout.rows(buf).take(win).enumerate() {
+            out[r * win..(r + 1) * win].copy_from_slice(row);
         }
-        packed
+        out
+    }
+
+    /// A flat, textured template for sampling windows against.
+    const PLAIN: [i16; 4096] = [100; 4096];
+
+    /// Samples a `side` x `side` window centred at `(cx, cy)` (Q16 bits), padding dropped.
+    fn window<L: Loops>(frame: &ImageView<'_>, cx: i32, cy: i32, side: usize) -> [i16; 63 * 63] {
+        let layout = L::layout(side);
+        let mut source = [0i16; 4096];
+        let mut out = [0i16; 4096];
+        let origin = WindowOrigin::new(cx, cy, side / 2);
+        let n = layout.window_len();
+        let t = TemplateBuffers {
+            intensity: &PLAIN[..n],
+            dx: &PLAIN[..n],
+            dy: &PLAIN[..n],
+        };
+        let scratch = (&mut source[..], &mut out[..n]);
+        L::match_window(frame, &origin, &layout, scratch, &t, true);
+        packed(&layout, &out)
+    }
+
+    /// Everything a template computes at a centre: intensity, gradients and sums, unpadded, and
+    /// the sums and samples of a window half a pixel off matched against it.
+    struct TemplateParts {
+        intensity: [i16; 63 * 63],
+        dx: [i16; 63 * 63],
+        dy: [i16; 63 * 63],
+        sums: TemplateSums,
+        matched: [MatchSums; 2],
+        next: [i16; 63 * 63],
+    }
+
+    fn template<L: Loops>(frame: &ImageView<'_>, c: (i32, i32), win: usize) -> TemplateParts {
+        let layout = L::layout(win);
+        let mut source = [0i16; 4096];
+        let mut patch = [0i16; 4096];
+        let [mut i, mut dx, mut dy, mut j] = [[0i16; 4096]; 4];
+        let origin = WindowOrigin::new(c.0, c.1, win / 2 + 1);
+        let n = layout.window_len();
+        let out = TemplateOut {
+            intensity: &mut i[..n],
+            dx: &mut dx[..n],
+            dy: &mut dy[..n],
+        };
+        let sums = L::template(frame, &origin, &layout, (&mut source, &mut patch), out);
+        let t = TemplateBuffers {
+            intensity: &i[..n],
+            dx: &dx[..n],
+            dy: &dy[..n],
+        };
+        let next = WindowOrigin::new(c.0 + 32768, c.1 - 16384, win / 2);
+        let matched = [false, true].map(|gain_bias| {
+            let scratch = (&mut source[..], &mut j[..n]);
+            L::match_window(frame, &next, &layout, scratch, &t, gain_bias)
+        });
+        TemplateParts {
+            intensity: packed(&layout, t.intensity),
+            dx: packed(&layout, t.dx),
+            dy: packed(&layout, t.dy),
+            sums,
+            matched,
+            next: packed(&layout, &j[..n]),
+        }
+    }
+
+    fn both(check: impl Fn(&dyn Fn(&ImageView<'_>, i32, i32, usize) -> [i16; 63 * 63])) {
+        check(&window::<Flat>);
+        check(&window::<Rows>);
     }
 
     #[test]
     fn bilinear_sample_of_a_ramp_is_exact() {
         let px = ramp();
         let frame = ImageView::packed(&px, 64, 64).unwrap();
-        // Centre (20.25, 10.5): the top-left sample of a 3x3 window is at (19.25, 9.5).
-        let out = window(&frame, 20 * 65536 + 16384, 10 * 65536 + 32768, 3);
-        assert_eq!(out[0], ((19.25 * 3.0 + 9.5) * 32.0) as i16);
-        assert_eq!(out[4], ((20.25 * 3.0 + 10.5) * 32.0) as i16);
-        assert_eq!(out[8], ((21.25 * 3.0 + 11.5) * 32.0) as i16);
+        both(|window| {
+            // Centre (20.25, 10.5): the top-left sample of a 3x3 window is at (19.25, 9.5).
+            let out = window(&frame, 20 * 65536 + 16384, 10 * 65536 + 32768, 3);
+            assert_eq!(out[0], ((19.25 * 3.0 + 9.5) * 32.0) as i16);
+            assert_eq!(out[4], ((20.25 * 3.0 + 10.5) * 32.0) as i16);
+            assert_eq!(out[8], ((21.25 * 3.0 + 11.5) * 32.0) as i16);
+        });
     }
 
     #[test]
     fn clamped_path_repeats_the_edge() {
         let px = ramp();
         let frame = ImageView::packed(&px, 64, 64).unwrap();
-        let out = window(&frame, 0, 0, 5);
-        // Rows and columns -2 and -1 repeat row/column 0.
-        assert_eq!(out[0], 0);
-        assert_eq!(out[2], 0);
-        assert_eq!(out[3], 3 * 32);
-        assert_eq!(out[15], 32);
+        both(|window| {
+            let out = window(&frame, 0, 0, 5);
+            // Rows and columns -2 and -1 repeat row/column 0.
+            assert_eq!(out[0], 0);
+            assert_eq!(out[2], 0);
+            assert_eq!(out[3], 3 * 32);
+            assert_eq!(out[5], 0);
+            assert_eq!(out[15], 32);
+        });
     }
 
     #[test]
     fn windows_entirely_outside_repeat_the_nearest_pixels() {
         let px = ramp();
         let frame = ImageView::packed(&px, 64, 64).unwrap();
-        // Far right and below: every sample is the bottom-right pixel.
-        let out = window(&frame, 100 << 16, 90 << 16, 3);
-        assert!(out[..9]
-            .iter()
-            .all(|&v| v == i16::from(px[63 * 64 + 63]) * 32));
-        // Far left: every sample of a row is that row's first pixel.
-        let out = window(&frame, -50 << 16, 10 << 16, 3);
-        assert_eq!(&out[..9], &[288, 288, 288, 320, 320, 320, 352, 352, 352]);
+        both(|window| {
+            // Far right and below: every sample is the bottom-right pixel.
+            let out = window(&frame, 100 << 16, 90 << 16, 3);
+            assert!(out[..9]
+                .iter()
+                .all(|&v| v == i16::from(px[63 * 64 + 63]) * 32));
+            // Far left: every sample of a row is that row's first pixel.
+            let out = window(&frame, -50 << 16, 10 << 16, 3);
+            assert_eq!(&out[..9], &[288, 288, 288, 320, 320, 320, 352, 352, 352]);
+        });
     }
 
     #[test]
     fn scharr_of_a_ramp_has_gain_32() {
         let px = ramp();
         let frame = ImageView::packed(&px, 64, 64).unwrap();
-        let layout = Layout::new(3);
-        let origin = WindowOrigin::new(30 << 16, 30 << 16, 2);
-        let mut source = [0i16; 64];
-        let mut patch = [0i16; 64];
-        sample(&frame, &origin, 5, &layout, &mut source, &mut patch);
-        let (mut dx, mut dy) = ([0i16; 18], [0i16; 18]);
-        scharr(&patch, &layout, &mut dx, &mut dy);
-        for (gx, gy) in layout.rows(&dx).zip(layout.rows(&dy)) {
-            assert!(gx.iter().all(|&g| g == 3 * 32));
-            assert!(gy.iter().all(|&g| g == 32));
+        for t in [
+            template::<Flat>(&frame, (30 << 16, 30 << 16), 3),
+            template::<Rows>(&frame, (30 << 16, 30 << 16), 3),
+        ] {
+            assert!(t.dx[..9].iter().all(|&g| g == 3 * 32));
+            assert!(t.dy[..9].iter().all(|&g| g == 32));
+            assert_eq!(t.intensity[4], (30 * 3 + 30) * 32);
         }
-        assert_eq!(dx[3..6], [0, 0, 0], "padding is cleared");
+    }
+
+    #[test]
+    fn flat_padding_is_zero() {
+        let px = noise::<{ 40 * 30 }>(3);
+        let frame = ImageView::packed(&px, 40, 30).unwrap();
+        let layout = Flat::layout(5);
+        let (mut source, mut out) = ([0i16; 256], [-1i16; 256]);
+        let origin = WindowOrigin::new(20 << 16, 15 << 16, 2);
+        let n = layout.window_len();
+        let t = TemplateBuffers {
+            intensity: &PLAIN[..n],
+            dx: &PLAIN[..n],
+            dy: &PLAIN[..n],
+        };
+        let scratch = (&mut source[..], &mut out[..n]);
+        Flat::match_window(&frame, &origin, &layout, scratch, &t, true);
+        for row in out[..n].chunks_exact(layout.pitch) {
+            assert_eq!(row[5..], [0, 0, 0]);
+        }
+    }
+
+    /// The two sets of loops agree bit for bit on every value and sum, for windows inside the
+    /// frame, across each edge and corner, and wholly outside it, at many sub-pixel offsets.
+    #[test]
+    fn flat_and_row_loops_agree() {
+        const W: usize = 47;
+        const H: usize = 35;
+        let px = noise::<{ W * H }>(7);
+        let bright = [255u8; W * H];
+        for pixels in [&px, &bright] {
+            let frame = ImageView::packed(pixels, W, H).unwrap();
+            for win in [3, 5, 9, 21] {
+                let mut k = 0i32;
+                for cy in (-14..=H as i32 + 12).step_by(3) {
+                    for cx in (-14..=W as i32 + 12).step_by(3) {
+                        // Sub-pixel offsets cycling through integers, halves and odd fractions.
+                        k = (k * 31 + 7919) & 0xFFFF;
+                        let c = ((cx << 16) + k, (cy << 16) + ((k * 7) & 0xFFFF));
+                        let (f, r) = (
+                            template::<Flat>(&frame, c, win),
+                            template::<Rows>(&frame, c, win),
+                        );
+                        let at = (win, c);
+                        assert_eq!(f.intensity, r.intensity, "{at:?}");
+                        assert_eq!(f.dx, r.dx, "{at:?}");
+                        assert_eq!(f.dy, r.dy, "{at:?}");
+                        assert_eq!(f.sums, r.sums, "{at:?}");
+                        assert_eq!(f.matched, r.matched, "{at:?}");
+                        assert_eq!(f.next, r.next, "{at:?}");
+                    }
+                }
+            }
+        }
     }
 }

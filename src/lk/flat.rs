@@ -1,0 +1,251 @@
+//! Window loops shaped for SIMD units (x86-64, AArch64).
+//!
+//! Every window buffer is row-major with a pitch of `window + 3`: the columns past the window
+//! are padding, kept at zero where they would enter a sum. Sampling, derivatives and window sums
+//! are then single flat loops over `rows * pitch` values, which vectorise without a scalar tail
+//! per row (a 21-px row would leave one of 5 px). Source pixels are first gathered into an `i16`
+//! block so that the interpolation is one flat loop of four equal-length shifted runs.
+//!
+//! # Integer widths
+//!
+//! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
+//! `8160^2 = 66_585_600`, so [`CHUNK`] = 64 consecutive products sum to at most `4_261_478_400`:
+//! below `u32::MAX` for `I*J` (both non-negative) and, for the signed products
+//! (`|I*Ix| <= 33_292_800`, 64 of them `<= 2_130_739_200`), below `i32::MAX`. Chunk sums are
+//! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
+
+use super::template::{MatchSums, TemplateSums};
+use super::window::{
+    bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
+    WindowOrigin,
+};
+use crate::frame::ImageView;
+
+/// Products summed in 32 bits before widening: the most that provably cannot overflow.
+pub(crate) const CHUNK: usize = 64;
+
+/// The padded, flat loops.
+pub(crate) struct Flat;
+
+impl Loops for Flat {
+    fn layout(win: usize) -> Layout {
+        // The window, its two derivative border columns and the bilinear neighbour of the last.
+        let pitch = win + 3;
+        Layout {
+            win,
+            pitch,
+            patch_pitch: pitch,
+            // Two values of slack for the flat Scharr loop's last reads.
+            patch_len: (win + 2) * pitch + 2,
+            // The patch's source pixels: one more row, one value of slack.
+            source_len: (win + 3) * pitch + 1,
+        }
+    }
+
+    fn template(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        (source, patch): (&mut [i16], &mut [i16]),
+        out: TemplateOut<'_>,
+    ) -> TemplateSums {
+        let side = layout.win + 2;
+        sample(frame, origin, side, layout.pitch, source, patch);
+        scharr(patch, layout, out.dx, out.dy);
+        if !origin.fits(frame, side, side) {
+            mask_outside(frame, origin, layout, out.dx, out.dy);
+        }
+        inner(patch, layout, out.intensity);
+        template_sums(out.intensity, out.dx, out.dy)
+    }
+
+    fn match_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        (source, j): (&mut [i16], &mut [i16]),
+        t: &TemplateBuffers<'_>,
+        gain_bias: bool,
+    ) -> MatchSums {
+        sample(frame, origin, layout.win, layout.pitch, source, j);
+        clear_padding(layout, j);
+        match_sums(j, t.intensity, t.dx, t.dy, gain_bias)
+    }
+}
+
+/// Zeroes the padding columns of a window buffer so they add nothing to window sums.
+fn clear_padding(layout: &Layout, buf: &mut [i16]) {
+    for row in buf.chunks_exact_mut(layout.pitch) {
+        row.iter_mut().skip(layout.win).for_each(|v| *v = 0);
+    }
+}
+
+/// Samples `rows` rows of `pitch` values of `frame` at `origin` into `out` (grey x 32).
+///
+/// `source` receives the `(rows + 1) x pitch` pixels under the window first (edge pixels repeat
+/// outside the frame), so the interpolation is one flat loop. Only the first `pitch - 1` values of
+/// each output row are meaningful; callers clear or ignore the rest.
+fn sample(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    rows: usize,
+    pitch: usize,
+    source: &mut [i16],
+    out: &mut [i16],
+) {
+    gather(frame, origin, rows + 1, pitch, source);
+    if let Some(slack) = source.get_mut((rows + 1) * pitch) {
+        *slack = 0;
+    }
+    let n = rows * pitch;
+    let w = origin.w.map(i32::from);
+    let run = |k: usize| source.get(k..k + n).unwrap_or(&[]);
+    // Four equal-length shifted runs (pixel, right, below, below-right) vectorise cleanly.
+    let quads = run(0)
+        .iter()
+        .zip(run(1))
+        .zip(run(pitch).iter().zip(run(pitch + 1)));
+    for (o, ((&a, &b), (&c, &d))) in out.iter_mut().take(n).zip(quads) {
+        *o = bilinear(w, a.into(), b.into(), c.into(), d.into());
+    }
+}
+
+/// Copies the template (the patch without its one-pixel border) into `out`, padding cleared.
+fn inner(patch: &[i16], layout: &Layout, out: &mut [i16]) {
+    let n = layout.window_len();
+    if let Some(src) = patch.get(layout.pitch + 1..layout.pitch + 1 + n) {
+        out.iter_mut().zip(src).for_each(|(d, &s)| *d = s);
+    }
+    clear_padding(layout, out);
+}
+
+/// Scharr derivatives of the template inside its patch, padding cleared.
+fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
+    let (n, p) = (layout.window_len(), layout.pitch);
+    // Output k is the template pixel whose patch neighbourhood starts at patch[k].
+    let run = |k: usize| patch.get(k..k + n).unwrap_or(&[]);
+    let w = |v: &i16| i32::from(*v);
+    let (ul, uc, ur) = (run(0), run(1), run(2));
+    let (ml, mr) = (run(p), run(p + 2));
+    let (dl, dc, dr) = (run(2 * p), run(2 * p + 1), run(2 * p + 2));
+    let horizontal = ul
+        .iter()
+        .zip(ur)
+        .zip(ml.iter().zip(mr))
+        .zip(dl.iter().zip(dr));
+    for (gx, (((a, b), (c, d)), (e, f))) in dx.iter_mut().zip(horizontal) {
+        *gx = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
+    }
+    let vertical = ul
+        .iter()
+        .zip(dl)
+        .zip(uc.iter().zip(dc))
+        .zip(ur.iter().zip(dr));
+    for (gy, (((a, b), (c, d)), (e, f))) in dy.iter_mut().zip(vertical) {
+        *gy = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
+    }
+    clear_padding(layout, dx);
+    clear_padding(layout, dy);
+}
+
+/// The template's window sums, in 32-bit chunks widened to 64 bits.
+fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
+    let mut s = TemplateSums::default();
+    let chunks = intensity
+        .chunks(CHUNK)
+        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
+    for (i_chunk, (x_chunk, y_chunk)) in chunks {
+        // Exact in 32 bits for 64 products (module docs).
+        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
+        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
+            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
+        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
+            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
+            gxx += gx * gx;
+            gxy += gx * gy;
+            gyy += gy * gy;
+            si += i;
+            sii += (i * i) as u32;
+            sx += gx;
+            sy += gy;
+            six += i * gx;
+            siy += i * gy;
+        }
+        s.gxx += i64::from(gxx);
+        s.gxy += i64::from(gxy);
+        s.gyy += i64::from(gyy);
+        s.si += i64::from(si);
+        s.sii += i64::from(sii);
+        s.sx += i64::from(sx);
+        s.sy += i64::from(sy);
+        s.six += i64::from(six);
+        s.siy += i64::from(siy);
+    }
+    s
+}
+
+/// The match sums, in 32-bit chunks widened to 64 bits.
+pub(crate) fn match_sums(
+    j: &[i16],
+    intensity: &[i16],
+    dx: &[i16],
+    dy: &[i16],
+    gain_bias: bool,
+) -> MatchSums {
+    let mut m = MatchSums::default();
+    let chunks = j
+        .chunks(CHUNK)
+        .zip(intensity.chunks(CHUNK))
+        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
+    for ((j, i), (gx, gy)) in chunks {
+        // Exact in 32 bits for 64 products (module docs).
+        let (mut sjx, mut sjy) = (0i32, 0i32);
+        for ((&jv, &gx), &gy) in j.iter().zip(gx).zip(gy) {
+            sjx += i32::from(jv) * i32::from(gx);
+            sjy += i32::from(jv) * i32::from(gy);
+        }
+        m.sjx += i64::from(sjx);
+        m.sjy += i64::from(sjy);
+        if gain_bias {
+            let (mut sj, mut sji) = (0i32, 0u32);
+            for (&jv, &i) in j.iter().zip(i) {
+                sj += i32::from(jv);
+                sji += (i32::from(jv) * i32::from(i)) as u32;
+            }
+            m.sj += i64::from(sj);
+            m.sji += i64::from(sji);
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values the
+    /// sampler and the Scharr filter can produce, checked against 128-bit arithmetic.
+    #[test]
+    fn window_sums_are_exact_at_the_extremes() {
+        const SIDE: usize = super::super::MAX_WINDOW;
+        // A window buffer without padding: every value counts.
+        let intensity = [8160i16; SIDE * SIDE];
+        for (gx_sign, gy_sign) in [(1i16, 1i16), (1, -1), (-1, -1)] {
+            let dx = [4080 * gx_sign; SIDE * SIDE];
+            let dy = [4080 * gy_sign; SIDE * SIDE];
+            let s = template_sums(&intensity, &dx, &dy);
+            let n = (SIDE * SIDE) as i128;
+            let (gx, gy) = (4080 * gx_sign as i128, 4080 * gy_sign as i128);
+            assert_eq!(s.gxx as i128, n * gx * gx);
+            assert_eq!(s.gxy as i128, n * gx * gy);
+            assert_eq!(s.sii as i128, n * 8160 * 8160);
+            assert_eq!(s.six as i128, n * 8160 * gx);
+            assert_eq!(s.siy as i128, n * 8160 * gy);
+            let j = [8160i16; SIDE * SIDE];
+            let m = match_sums(&j, &intensity, &dx, &dy, true);
+            assert_eq!(m.sji as i128, n * 8160 * 8160);
+            assert_eq!(m.sjx as i128, n * 8160 * gx);
+            assert_eq!(m.sjy as i128, n * 8160 * gy);
+        }
+    }
+}

@@ -55,11 +55,13 @@ const PAIRS: Rule<i64> = Rule {
     accepts: |n| (1..=1000).contains(&n),
     says: "must be between 1 and 1000",
 };
-const SIZE: Rule<i64> = Rule {
+/// Shared with `synth-sequence`.
+pub(crate) const SIZE: Rule<i64> = Rule {
     accepts: |n| (16..=4096).contains(&n),
     says: "must be between 16 and 4096",
 };
-const SEED: Rule<i64> = Rule {
+/// Shared with `synth-sequence`.
+pub(crate) const SEED: Rule<i64> = Rule {
     accepts: |n| n >= 0,
     says: "must be a whole number >= 0",
 };
@@ -75,7 +77,8 @@ const BIAS: Rule<f64> = Rule {
     accepts: |v| (-255.0..=255.0).contains(&v),
     says: "must be between -255 and 255",
 };
-const NOISE: Rule<f64> = Rule {
+/// Shared with `synth-sequence`.
+pub(crate) const NOISE: Rule<f64> = Rule {
     accepts: |v| (0.0..=50.0).contains(&v),
     says: "must be between 0 and 50",
 };

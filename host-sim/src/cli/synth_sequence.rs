@@ -3,6 +3,7 @@
 use std::ffi::OsString;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
+use super::synth::{NOISE, SEED, SIZE};
 use crate::commands::synth_sequence::SynthSequenceOptions;
 use crate::synth::FlightPath;
 
@@ -59,21 +60,9 @@ const FRAMES: Rule<i64> = Rule {
     accepts: |n| (2..=10_000).contains(&n),
     says: "must be between 2 and 10000",
 };
-const SIZE: Rule<i64> = Rule {
-    accepts: |n| (16..=4096).contains(&n),
-    says: "must be between 16 and 4096",
-};
-const SEED: Rule<i64> = Rule {
-    accepts: |n| n >= 0,
-    says: "must be a whole number >= 0",
-};
 const OBJECTS: Rule<i64> = Rule {
     accepts: |n| (0..=4).contains(&n),
     says: "must be between 0 and 4",
-};
-const NOISE: Rule<f64> = Rule {
-    accepts: |v| (0.0..=50.0).contains(&v),
-    says: "must be between 0 and 50",
 };
 
 /// Parses the words after `synth-sequence`; `None` means help was asked for.

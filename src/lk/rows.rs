@@ -6,21 +6,23 @@
 //! samples are interpolated straight from the frame's rows; only a window whose source pixels
 //! cross the frame's edge is gathered first (a [`Source`] of either kind).
 //!
-//! Each operation on a window is one function, not inlined, whose loops run row by row: a
-//! Cortex-M4 has thirteen free registers, and a loop inlined into a larger function or unrolled
-//! four-fold (as LLVM does to short loops) spills the bilinear weights and accumulators. The
-//! interpolation loop ends on two conditions, which keeps LLVM from unrolling it. Every value
-//! equals the flat loops' bit for bit: the same bilinear sums and rounding ([`bilinear`]), the
-//! same Scharr sums ([`rescale`]) and exact window sums.
+//! The loops run row by row, each in a small function of its own: a Cortex-M4 has thirteen
+//! free registers, and a loop inlined into a larger function or unrolled four-fold (as LLVM does
+//! to short loops) spills the bilinear weights and accumulators. The loops over pixel pairs end
+//! on two conditions, which keeps LLVM from unrolling them. Every value equals the flat loops'
+//! bit for bit: the same bilinear sums and rounding ([`bilinear`]), the same Scharr sums
+//! ([`rescale`]) and exact window sums and correlations.
 //!
 //! # Integer widths
 //!
-//! Sums of one row (at most [`MAX_WINDOW`] = 63 values) are exact in 32 bits: a product of two
-//! values is at most `8160^2 = 66_585_600`, 63 of them `4_194_892_800 < 2^32` for the
-//! non-negative `I*J` and `I*I` (kept as `u32`), and `|I*Ix| <= 33_292_800`, 63 of them
-//! `2_097_446_400 < 2^31`. Rows add into 64 bits.
+//! Template sums over at most [`MAX_WINDOW`] = 63 values are exact in 32 bits: a product of
+//! two values is at most `8160^2 = 66_585_600`, 63 of them `4_194_892_800 < 2^32` for the
+//! non-negative `I*I` (kept as `u32`), and `|I*Ix| <= 33_292_800`, 63 of them
+//! `2_097_446_400 < 2^31`; chunks add into 64 bits. Correlations are narrower still (see
+//! `correlation.rs`).
 
-use super::template::{MatchSums, TemplateSums};
+use super::correlation::Correlations;
+use super::template::TemplateSums;
 use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
     WindowOrigin,
@@ -52,8 +54,8 @@ impl Loops for Rows {
         let w = origin.w.map(i32::from);
         let TemplateOut { intensity, dx, dy } = out;
         match Source::of(frame, origin, layout.win + 2, source) {
-            Source::Frame(rows) => sample_patch(&w, &rows, layout, patch, intensity),
-            Source::Gathered(rows) => sample_patch(&w, &rows, layout, patch, intensity),
+            Source::Frame(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
+            Source::Gathered(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
         }
         derivatives(patch, layout, dx, dy);
         if !origin.fits(frame, layout.win + 2, layout.win + 2) {
@@ -62,36 +64,41 @@ impl Loops for Rows {
         template_sums(intensity, dx, dy)
     }
 
-    fn match_window(
+    fn correlate(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        (source, j): (&mut [i16], &mut [i16]),
+        source: &mut [i16],
         t: &TemplateBuffers<'_>,
-        gain_bias: bool,
-    ) -> MatchSums {
-        let w = origin.w.map(i32::from);
-        let win = layout.win;
-        match Source::of(frame, origin, win, source) {
-            Source::Frame(rows) => sample(&w, &rows, win, j),
-            Source::Gathered(rows) => sample(&w, &rows, win, j),
+    ) -> Correlations {
+        match Source::of(frame, origin, layout.win, source) {
+            Source::Frame(px, stride) => correlate(px, stride, layout.win, t),
+            Source::Gathered(px, stride) => correlate(px, stride, layout.win, t),
         }
-        if gain_bias {
-            match_sums::<true>(j, t)
-        } else {
-            match_sums::<false>(j, t)
+    }
+
+    fn sample_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        source: &mut [i16],
+        j: &mut [i16],
+    ) {
+        let w = origin.w.map(i32::from);
+        match Source::of(frame, origin, layout.win, source) {
+            Source::Frame(px, stride) => sample(&w, px, stride, layout.win, j),
+            Source::Gathered(px, stride) => sample(&w, px, stride, layout.win, j),
         }
     }
 }
 
 /// The source pixels under a `side` x `side` window and their bilinear neighbours: a
-/// `(side + 1)` square.
+/// `(side + 1)` square, from its top-left pixel on, rows `stride` apart.
 enum Source<'a> {
-    /// The frame's own rows: the square's columns lie in the frame (rows above or below it
-    /// repeat its first or last row).
-    Frame(SourceRows<'a, u8>),
-    /// A copy with the frame's edge pixels repeated beyond its left or right edge.
-    Gathered(SourceRows<'a, i16>),
+    /// The frame's own pixels: the square lies in the frame.
+    Frame(&'a [u8], usize),
+    /// A copy with the frame's edge pixels repeated outside it.
+    Gathered(&'a [i16], usize),
 }
 
 impl<'a> Source<'a> {
@@ -102,46 +109,19 @@ impl<'a> Source<'a> {
         scratch: &'a mut [i16],
     ) -> Self {
         let n = side + 1;
-        if origin.x >= 0 && origin.x as usize + n <= frame.width() {
-            return Source::Frame(SourceRows {
-                px: frame.pixels(),
-                stride: frame.stride(),
-                x: origin.x as usize,
-                y: origin.y,
-                last_row: frame.height() as isize - 1,
-                n,
-            });
+        if let Some(px) = frame.block(origin.x, origin.y, n, n) {
+            return Source::Frame(px, frame.stride());
         }
         gather(frame, origin, n, n, scratch);
-        Source::Gathered(SourceRows {
-            px: scratch,
-            stride: n,
-            x: 0,
-            y: 0,
-            last_row: n as isize - 1,
-            n,
-        })
+        Source::Gathered(scratch.get(..n * n).unwrap_or(&[]), n)
     }
 }
 
-/// The rows of a source square: row `r` is `n` pixels from `px[y' * stride + x]`, with
-/// `y' = y + r` clamped to `0..=last_row`.
-struct SourceRows<'a, P> {
-    px: &'a [P],
-    stride: usize,
-    x: usize,
-    y: isize,
-    last_row: isize,
-    n: usize,
-}
-
-impl<'a, P: Pixel> SourceRows<'a, P> {
-    #[inline(always)]
-    fn row(&self, r: usize) -> &'a [P] {
-        let y = (self.y + r as isize).clamp(0, self.last_row) as usize;
-        let row = self.px.get(y * self.stride + self.x..).unwrap_or(&[]);
-        row.get(..self.n).unwrap_or(row)
-    }
+/// The row pairs of a source square: each row with the one below.
+#[inline(always)]
+fn row_pairs<P>(px: &[P], stride: usize) -> impl Iterator<Item = (&[P], &[P])> {
+    let below = px.get(stride..).unwrap_or(&[]);
+    px.chunks(stride.max(1)).zip(below.chunks(stride.max(1)))
 }
 
 /// A pixel of a [`Source`].
@@ -166,32 +146,28 @@ fn row_mut<T>(buf: &mut [T], r: usize, pitch: usize, len: usize) -> &mut [T] {
 #[inline(always)]
 fn sample_patch<P: Pixel>(
     w: &[i32; 4],
-    source: &SourceRows<'_, P>,
+    px: &[P],
+    stride: usize,
     layout: &Layout,
     patch: &mut [i16],
     intensity: &mut [i16],
 ) {
     let (win, pp) = (layout.win, layout.patch_pitch);
-    let mut top = source.row(0);
+    let rows = row_pairs(px, stride).zip(patch.chunks_exact_mut(pp));
     let mut inner = intensity.chunks_exact_mut(win);
-    for (r, out) in patch.chunks_exact_mut(pp).enumerate() {
-        let bottom = source.row(r + 1);
+    for (r, ((top, bottom), out)) in rows.enumerate() {
         match if r == 0 { None } else { inner.next() } {
             Some(inner) => interpolate_twice(w, top, bottom, out, inner),
             None => interpolate(w, top, bottom, out),
         }
-        top = bottom;
     }
 }
 
 /// Samples the `side` x `side` window into `out`, row by row.
 #[inline(always)]
-fn sample<P: Pixel>(w: &[i32; 4], source: &SourceRows<'_, P>, side: usize, out: &mut [i16]) {
-    let mut top = source.row(0);
-    for (r, out) in out.chunks_exact_mut(side).enumerate() {
-        let bottom = source.row(r + 1);
+fn sample<P: Pixel>(w: &[i32; 4], px: &[P], stride: usize, side: usize, out: &mut [i16]) {
+    for ((top, bottom), out) in row_pairs(px, stride).zip(out.chunks_exact_mut(side)) {
         interpolate(w, top, bottom, out);
-        top = bottom;
     }
 }
 
@@ -252,32 +228,102 @@ fn interpolate_twice<P: Pixel>(
     }
 }
 
-/// The match sums in one pass over the window (`ΣJ` and `ΣJI` only with `GAIN_BIAS`), exact
-/// in 32 bits over chunks of [`MAX_ROW`] values.
-#[inline(never)]
-fn match_sums<const GAIN_BIAS: bool>(j: &[i16], t: &TemplateBuffers<'_>) -> MatchSums {
-    let mut m = MatchSums::default();
-    let chunks = j
-        .chunks(MAX_ROW)
-        .zip(t.intensity.chunks(MAX_ROW))
-        .zip(t.dx.chunks(MAX_ROW).zip(t.dy.chunks(MAX_ROW)));
-    for ((j, i), (gx, gy)) in chunks {
-        let (mut sj, mut sji, mut sjx, mut sjy) = (0i32, 0u32, 0i32, 0i32);
-        for ((&j, &i), (&gx, &gy)) in j.iter().zip(i).zip(gx.iter().zip(gy)) {
-            let j = i32::from(j);
-            sjx += j * i32::from(gx);
-            sjy += j * i32::from(gy);
-            if GAIN_BIAS {
-                sj += j;
-                sji = sji.wrapping_add((j * i32::from(i)) as u32);
-            }
-        }
-        m.sj += i64::from(sj);
-        m.sji += i64::from(sji);
-        m.sjx += i64::from(sjx);
-        m.sjy += i64::from(sjy);
+/// The correlations of a source square with the template: one template array at a time, and
+/// the pixel sums.
+fn correlate<P: Pixel>(
+    px: &[P],
+    stride: usize,
+    win: usize,
+    t: &TemplateBuffers<'_>,
+) -> Correlations {
+    let [own, right, below, below_right] = pixel_sums(px, stride, win);
+    let [i, x, y] = [t.intensity, t.dx, t.dy].map(|t| correlate_template(px, stride, t, win));
+    Correlations {
+        sums: [
+            [own, i[0], x[0], y[0]],
+            [right, i[1], x[1], y[1]],
+            [below, i[2], x[2], y[2]],
+            [below_right, i[3], x[3], y[3]],
+        ],
     }
-    m
+}
+
+/// `ΣP` of each neighbour: source rows `0..win` hold the samples' own pixels and right
+/// neighbours (columns `0..win` and `1..=win`), rows `1..=win` their lower ones. At most
+/// `64^2 * 255 < 2^31`.
+#[inline(never)]
+fn pixel_sums<P: Pixel>(px: &[P], stride: usize, win: usize) -> [i64; 4] {
+    let mut sums = [0i32; 4];
+    for (s, row) in px.chunks(stride.max(1)).take(win + 1).enumerate() {
+        let total: i32 = row.iter().take(win + 1).map(|&v| v.into()).sum();
+        let first = row.first().map_or(0, |&v| v.into());
+        let last = row.get(win).map_or(0, |&v| v.into());
+        let (left, right) = (total - last, total - first);
+        if s < win {
+            sums[0] += left;
+            sums[1] += right;
+        }
+        if s > 0 {
+            sums[2] += left;
+            sums[3] += right;
+        }
+    }
+    sums.map(i64::from)
+}
+
+/// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31`
+/// (widths in `correlation.rs`).
+const CORRELATION_CHUNK: usize = 1024;
+
+/// `[ΣP·T, ΣP_right·T, ΣP_below·T, ΣP_below_right·T]` for one template array `T`, template row
+/// by template row, in 32 bits over as many rows as [`CORRELATION_CHUNK`] allows.
+#[inline(never)]
+fn correlate_template<P: Pixel>(px: &[P], stride: usize, t: &[i16], win: usize) -> [i64; 4] {
+    let mut total = [0i64; 4];
+    let rows = row_pairs(px, stride).zip(t.chunks_exact(win.max(1)));
+    let chunk_rows = (CORRELATION_CHUNK / win.max(1)).max(1);
+    let (mut sums, mut left) = ([0i32; 4], chunk_rows);
+    for ((top, bottom), t) in rows {
+        for (sum, row) in sums.iter_mut().zip(correlate_row(top, bottom, t)) {
+            *sum += row;
+        }
+        left -= 1;
+        if left == 0 {
+            for (total, sum) in total.iter_mut().zip(&mut sums) {
+                *total += i64::from(core::mem::take(sum));
+            }
+            left = chunk_rows;
+        }
+    }
+    for (total, sum) in total.iter_mut().zip(sums) {
+        *total += i64::from(sum);
+    }
+    total
+}
+
+/// The four neighbours' sums of one template row `t` against source rows `top` and `bottom`.
+///
+/// Each pixel's right neighbour is the next column's pixel and stays in a register; as in
+/// [`interpolate`], the loop ends on two conditions, which keeps it rolled.
+#[inline(always)]
+fn correlate_row<P: Pixel>(top: &[P], bottom: &[P], t: &[i16]) -> [i32; 4] {
+    let (Some((&a, top)), Some((&c, bottom))) = (top.split_first(), bottom.split_first()) else {
+        return [0; 4];
+    };
+    let (mut a, mut c): (i32, i32) = (a.into(), c.into());
+    let mut sums = [0i32; 4];
+    for (k, &t) in t.iter().enumerate() {
+        let (Some(&b), Some(&d)) = (top.get(k), bottom.get(k)) else {
+            break;
+        };
+        let (b, d, t): (i32, i32, i32) = (b.into(), d.into(), t.into());
+        sums[0] += a * t;
+        sums[1] += b * t;
+        sums[2] += c * t;
+        sums[3] += d * t;
+        (a, c) = (b, d);
+    }
+    sums
 }
 
 /// The Scharr derivatives of the template inside its patch.

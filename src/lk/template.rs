@@ -26,6 +26,7 @@
 
 use core::marker::PhantomData;
 
+use super::correlation::Correlations;
 use super::wide::{round_shift, to_i32, Fractions, Reciprocal};
 use super::window::{Layout, Loops, TemplateBuffers, WindowOrigin, INTENSITY_BITS};
 use super::Illumination;
@@ -156,23 +157,20 @@ impl<'s, L: Loops> Template<'s, L> {
         })
     }
 
-    /// One LK step for the next frame's window at `origin`; `scratch` is the source and window
-    /// scratch of the window loops.
-    pub(crate) fn step(
-        &self,
-        frame: &ImageView<'_>,
-        origin: &WindowOrigin,
-        scratch: (&mut [i16], &mut [i16]),
-    ) -> Step {
-        let gain_bias = self.illumination == Illumination::GainBias;
-        let m = L::match_window(
-            frame,
-            origin,
-            &self.layout,
-            scratch,
-            &self.buffers,
-            gain_bias,
-        );
+    /// The layout of the template's buffers.
+    pub(crate) fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The template's buffers.
+    pub(crate) fn buffers(&self) -> &TemplateBuffers<'s> {
+        &self.buffers
+    }
+
+    /// One LK step for the next frame's window with the correlations `c` of its integer
+    /// position and the bilinear weights `w` of its sub-pixel offset.
+    pub(crate) fn step(&self, c: &Correlations, w: [i16; 4]) -> Step {
+        let m = c.match_sums(w);
         let (bx, by) = self.mismatch(&m);
         // delta = -G^-1 b, with G^-1 = adj(G) / det(G); b scaled to i32 so that each product
         // with a coefficient (< 2^30) stays below 2^60.
@@ -228,23 +226,17 @@ impl<'s, L: Loops> Template<'s, L> {
     }
 
     /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
-    /// bits), after the gain and bias correction in gain-bias mode.
+    /// bits), after the gain and bias correction in gain-bias mode; `c` are the window's
+    /// correlations and `(source, j)` scratch.
     pub(crate) fn residual(
         &self,
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
+        c: &Correlations,
         (source, j): (&mut [i16], &mut [i16]),
     ) -> i32 {
-        let gain_bias = self.illumination == Illumination::GainBias;
-        let scratch = (&mut *source, &mut *j);
-        let m = L::match_window(
-            frame,
-            origin,
-            &self.layout,
-            scratch,
-            &self.buffers,
-            gain_bias,
-        );
+        let m = c.match_sums(origin.w);
+        L::sample_window(frame, origin, &self.layout, source, j);
         let gain = self.gain(&m);
         let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.

@@ -15,7 +15,8 @@
 //! [`super::flat`] is shaped for SIMD units (padded rows, flat loops), [`super::rows`] for scalar
 //! cores such as the Cortex-M4 (packed rows, pixels read straight from the frame).
 
-use super::template::{MatchSums, TemplateSums};
+use super::correlation::Correlations;
+use super::template::TemplateSums;
 use crate::frame::ImageView;
 
 /// Fractional bits of the bilinear weights.
@@ -75,17 +76,25 @@ pub(crate) trait Loops {
         out: TemplateOut<'_>,
     ) -> TemplateSums;
 
-    /// Samples the next window, the `win` square at `origin`, into `j` (padding zero) and
-    /// returns its window sums against the template; `ΣJ` and `ΣJI` only when `gain_bias`.
-    /// `scratch` is the source buffer and `j`.
-    fn match_window(
+    /// The [`Correlations`] of the source pixels under the `win` square at `origin` (its integer
+    /// position only) with the template. `source` is scratch of `layout.source_len` values.
+    fn correlate(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        scratch: (&mut [i16], &mut [i16]),
+        source: &mut [i16],
         t: &TemplateBuffers<'_>,
-        gain_bias: bool,
-    ) -> MatchSums;
+    ) -> Correlations;
+
+    /// Samples the next window, the `win` square at `origin`, into the window buffer `j`
+    /// (padding zero). `source` is scratch of `layout.source_len` values.
+    fn sample_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        source: &mut [i16],
+        j: &mut [i16],
+    );
 }
 
 /// The buffers a template is derived into, laid out like [`TemplateBuffers`].
@@ -277,34 +286,30 @@ mod tests {
         out
     }
 
-    /// A flat, textured template for sampling windows against.
-    const PLAIN: [i16; 4096] = [100; 4096];
-
     /// Samples a `side` x `side` window centred at `(cx, cy)` (Q16 bits), padding dropped.
     fn window<L: Loops>(frame: &ImageView<'_>, cx: i32, cy: i32, side: usize) -> [i16; 63 * 63] {
         let layout = L::layout(side);
         let mut source = [0i16; 4096];
         let mut out = [0i16; 4096];
         let origin = WindowOrigin::new(cx, cy, side / 2);
-        let n = layout.window_len();
-        let t = TemplateBuffers {
-            intensity: &PLAIN[..n],
-            dx: &PLAIN[..n],
-            dy: &PLAIN[..n],
-        };
-        let scratch = (&mut source[..], &mut out[..n]);
-        L::match_window(frame, &origin, &layout, scratch, &t, true);
+        L::sample_window(
+            frame,
+            &origin,
+            &layout,
+            &mut source,
+            &mut out[..layout.window_len()],
+        );
         packed(&layout, &out)
     }
 
     /// Everything a template computes at a centre: intensity, gradients and sums, unpadded, and
-    /// the sums and samples of a window half a pixel off matched against it.
+    /// the correlations and samples of a window half a pixel off.
     struct TemplateParts {
         intensity: [i16; 63 * 63],
         dx: [i16; 63 * 63],
         dy: [i16; 63 * 63],
         sums: TemplateSums,
-        matched: [MatchSums; 2],
+        correlations: Correlations,
         next: [i16; 63 * 63],
     }
 
@@ -327,16 +332,14 @@ mod tests {
             dy: &dy[..n],
         };
         let next = WindowOrigin::new(c.0 + 32768, c.1 - 16384, win / 2);
-        let matched = [false, true].map(|gain_bias| {
-            let scratch = (&mut source[..], &mut j[..n]);
-            L::match_window(frame, &next, &layout, scratch, &t, gain_bias)
-        });
+        let correlations = L::correlate(frame, &next, &layout, &mut source, &t);
+        L::sample_window(frame, &next, &layout, &mut source, &mut j[..n]);
         TemplateParts {
             intensity: packed(&layout, t.intensity),
             dx: packed(&layout, t.dx),
             dy: packed(&layout, t.dy),
             sums,
-            matched,
+            correlations,
             next: packed(&layout, &j[..n]),
         }
     }
@@ -412,13 +415,7 @@ mod tests {
         let (mut source, mut out) = ([0i16; 256], [-1i16; 256]);
         let origin = WindowOrigin::new(20 << 16, 15 << 16, 2);
         let n = layout.window_len();
-        let t = TemplateBuffers {
-            intensity: &PLAIN[..n],
-            dx: &PLAIN[..n],
-            dy: &PLAIN[..n],
-        };
-        let scratch = (&mut source[..], &mut out[..n]);
-        Flat::match_window(&frame, &origin, &layout, scratch, &t, true);
+        Flat::sample_window(&frame, &origin, &layout, &mut source, &mut out[..n]);
         for row in out[..n].chunks_exact(layout.pitch) {
             assert_eq!(row[5..], [0, 0, 0]);
         }
@@ -450,7 +447,7 @@ mod tests {
                         assert_eq!(f.dx, r.dx, "{at:?}");
                         assert_eq!(f.dy, r.dy, "{at:?}");
                         assert_eq!(f.sums, r.sums, "{at:?}");
-                        assert_eq!(f.matched, r.matched, "{at:?}");
+                        assert_eq!(f.correlations, r.correlations, "{at:?}");
                         assert_eq!(f.next, r.next, "{at:?}");
                     }
                 }

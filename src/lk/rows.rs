@@ -1,10 +1,12 @@
 //! Window loops for scalar cores (the Cortex-M4 of flight controllers).
 //!
-//! A core without SIMD gains nothing from [`super::flat`]'s padded rows and flat loops and pays
-//! for every padding value, the gathered copy of the source pixels and the clears. Here window
-//! buffers are packed (`pitch == window`), the patch has a one-pixel border and no padding, and
-//! samples are interpolated straight from the frame's rows; only a window whose source pixels
-//! cross the frame's edge is gathered first (a [`Source`] of either kind).
+//! A core without SIMD pays for every padding value of [`super::flat`]'s rows and for its
+//! clears. Here window buffers have a single padding column (`pitch == window + 1`, zero in the
+//! template), just enough for the next frame's source block, gathered once as `i16` with the
+//! same pitch, to line up with them: each bilinear neighbour's correlation with a template array
+//! is then one flat dot product, which LLVM turns into `SMLAD` (two multiply-accumulates per
+//! instruction). The template patch has a one-pixel border and no padding and is interpolated
+//! straight from the frame's rows (a [`Source`] of either kind).
 //!
 //! The loops run row by row, each in a small function of its own: a Cortex-M4 has thirteen
 //! free registers, and a loop inlined into a larger function or unrolled four-fold (as LLVM does
@@ -36,10 +38,11 @@ impl Loops for Rows {
     fn layout(win: usize) -> Layout {
         Layout {
             win,
-            pitch: win,
+            pitch: win + 1,
             patch_pitch: win + 2,
             patch_len: (win + 2) * (win + 2),
-            // The patch's source pixels when they must be gathered.
+            // The patch's source pixels when they must be gathered; the next window's, always,
+            // need `(win + 1)^2` and a value of slack.
             source_len: (win + 3) * (win + 3),
         }
     }
@@ -58,6 +61,9 @@ impl Loops for Rows {
             Source::Gathered(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
         }
         derivatives(patch, layout, dx, dy);
+        for buf in [&mut *intensity, &mut *dx, &mut *dy] {
+            clear_padding(layout, buf);
+        }
         if !origin.fits(frame, layout.win + 2, layout.win + 2) {
             mask_outside(frame, origin, layout, dx, dy);
         }
@@ -71,10 +77,8 @@ impl Loops for Rows {
         source: &mut [i16],
         t: &TemplateBuffers<'_>,
     ) -> Correlations {
-        match Source::of(frame, origin, layout.win, source) {
-            Source::Frame(px, stride) => correlate(px, stride, layout.win, t),
-            Source::Gathered(px, stride) => correlate(px, stride, layout.win, t),
-        }
+        let block = next_block(frame, origin, layout, source);
+        correlate(block, layout, t)
     }
 
     fn sample_window(
@@ -84,10 +88,40 @@ impl Loops for Rows {
         source: &mut [i16],
         j: &mut [i16],
     ) {
+        let block = next_block(frame, origin, layout, source);
         let w = origin.w.map(i32::from);
-        match Source::of(frame, origin, layout.win, source) {
-            Source::Frame(px, stride) => sample(&w, px, stride, layout.win, j),
-            Source::Gathered(px, stride) => sample(&w, px, stride, layout.win, j),
+        let p = layout.pitch;
+        let run = |k: usize| block.get(k..).unwrap_or(&[]);
+        let quads = run(0).iter().zip(run(1)).zip(run(p).iter().zip(run(p + 1)));
+        for (o, ((&a, &b), (&c, &d))) in j.iter_mut().take(layout.win * p).zip(quads) {
+            *o = bilinear(w, a.into(), b.into(), c.into(), d.into());
+        }
+        clear_padding(layout, j);
+    }
+}
+
+/// Gathers the next window's `(win + 1)` square of source pixels into `source`, rows
+/// `layout.pitch` apart, with a zero after it: the run of each bilinear neighbour then lines up
+/// with the window buffers.
+fn next_block<'s>(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    layout: &Layout,
+    source: &'s mut [i16],
+) -> &'s [i16] {
+    let n = layout.win + 1;
+    gather(frame, origin, n, n, source);
+    if let Some(slack) = source.get_mut(n * n) {
+        *slack = 0;
+    }
+    source.get(..n * n + 1).unwrap_or(&[])
+}
+
+/// Zeroes the padding column of a window buffer.
+fn clear_padding(layout: &Layout, buf: &mut [i16]) {
+    for row in buf.chunks_exact_mut(layout.pitch) {
+        if let Some(pad) = row.get_mut(layout.win) {
+            *pad = 0;
         }
     }
 }
@@ -154,20 +188,14 @@ fn sample_patch<P: Pixel>(
 ) {
     let (win, pp) = (layout.win, layout.patch_pitch);
     let rows = row_pairs(px, stride).zip(patch.chunks_exact_mut(pp));
-    let mut inner = intensity.chunks_exact_mut(win);
+    let mut inner = intensity
+        .chunks_exact_mut(layout.pitch)
+        .map(|row| row.get_mut(..win).unwrap_or(&mut []));
     for (r, ((top, bottom), out)) in rows.enumerate() {
         match if r == 0 { None } else { inner.next() } {
             Some(inner) => interpolate_twice(w, top, bottom, out, inner),
             None => interpolate(w, top, bottom, out),
         }
-    }
-}
-
-/// Samples the `side` x `side` window into `out`, row by row.
-#[inline(always)]
-fn sample<P: Pixel>(w: &[i32; 4], px: &[P], stride: usize, side: usize, out: &mut [i16]) {
-    for ((top, bottom), out) in row_pairs(px, stride).zip(out.chunks_exact_mut(side)) {
-        interpolate(w, top, bottom, out);
     }
 }
 
@@ -228,102 +256,74 @@ fn interpolate_twice<P: Pixel>(
     }
 }
 
-/// The correlations of a source square with the template: one template array at a time, and
-/// the pixel sums.
-fn correlate<P: Pixel>(
-    px: &[P],
-    stride: usize,
-    win: usize,
-    t: &TemplateBuffers<'_>,
-) -> Correlations {
-    let [own, right, below, below_right] = pixel_sums(px, stride, win);
-    let [i, x, y] = [t.intensity, t.dx, t.dy].map(|t| correlate_template(px, stride, t, win));
-    Correlations {
-        sums: [
-            [own, i[0], x[0], y[0]],
-            [right, i[1], x[1], y[1]],
-            [below, i[2], x[2], y[2]],
-            [below_right, i[3], x[3], y[3]],
-        ],
+/// The correlations of the next window's gathered source block with the template.
+///
+/// Neighbour `q`'s pixels under the window are the run of the block starting at
+/// `[0, 1, pitch, pitch + 1][q]`; the template's zero padding column drops the extra column of
+/// each run from the products.
+#[inline(never)]
+fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correlations {
+    let (p, n) = (layout.pitch, layout.window_len());
+    let mut c = Correlations {
+        sums: pixel_sums(block, layout).map(|plain| [plain, 0, 0, 0]),
+    };
+    for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
+        let run = block.get(offset..offset + n).unwrap_or(&[]);
+        sums[1] = dot(run, t.intensity);
+        sums[2] = dot(run, t.dx);
+        sums[3] = dot(run, t.dy);
     }
+    c
 }
 
-/// `ΣP` of each neighbour: source rows `0..win` hold the samples' own pixels and right
-/// neighbours (columns `0..win` and `1..=win`), rows `1..=win` their lower ones. At most
+/// `ΣP` of each neighbour over the window, from the block's total, its first and last rows and
+/// columns: the samples' own pixels are the block without its last row and column, their right
+/// neighbours the block without its last row and first column, and so on. At most
 /// `64^2 * 255 < 2^31`.
-#[inline(never)]
-fn pixel_sums<P: Pixel>(px: &[P], stride: usize, win: usize) -> [i64; 4] {
-    let mut sums = [0i32; 4];
-    for (s, row) in px.chunks(stride.max(1)).take(win + 1).enumerate() {
-        let total: i32 = row.iter().take(win + 1).map(|&v| v.into()).sum();
-        let first = row.first().map_or(0, |&v| v.into());
-        let last = row.get(win).map_or(0, |&v| v.into());
-        let (left, right) = (total - last, total - first);
-        if s < win {
-            sums[0] += left;
-            sums[1] += right;
-        }
-        if s > 0 {
-            sums[2] += left;
-            sums[3] += right;
-        }
-    }
-    sums.map(i64::from)
+fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
+    let (p, win) = (layout.pitch, layout.win);
+    let sum = |values: &mut dyn Iterator<Item = &i16>| values.map(|&v| i32::from(v)).sum::<i32>();
+    let square = block.get(..p * p).unwrap_or(&[]);
+    let total = sum(&mut square.iter());
+    let (top, bottom) = (square.get(..p), square.get(win * p..));
+    let (top, bottom) = (
+        sum(&mut top.into_iter().flatten()),
+        sum(&mut bottom.into_iter().flatten()),
+    );
+    let left = sum(&mut square.iter().step_by(p.max(1)));
+    let right = sum(&mut square.iter().skip(win).step_by(p.max(1)));
+    let corner = |r: usize, c: usize| square.get(r * p + c).map_or(0, |&v| i32::from(v));
+    let without = |row: i32, corner_col: i32, col: i32| total - row - col + corner_col;
+    [
+        without(bottom, corner(win, win), right),
+        without(bottom, corner(win, 0), left),
+        without(top, corner(0, win), right),
+        without(top, corner(0, 0), left),
+    ]
+    .map(i64::from)
 }
 
 /// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31`
 /// (widths in `correlation.rs`).
 const CORRELATION_CHUNK: usize = 1024;
 
-/// `[ΣP·T, ΣP_right·T, ΣP_below·T, ΣP_below_right·T]` for one template array `T`, template row
-/// by template row, in 32 bits over as many rows as [`CORRELATION_CHUNK`] allows.
-#[inline(never)]
-fn correlate_template<P: Pixel>(px: &[P], stride: usize, t: &[i16], win: usize) -> [i64; 4] {
-    let mut total = [0i64; 4];
-    let rows = row_pairs(px, stride).zip(t.chunks_exact(win.max(1)));
-    let chunk_rows = (CORRELATION_CHUNK / win.max(1)).max(1);
-    let (mut sums, mut left) = ([0i32; 4], chunk_rows);
-    for ((top, bottom), t) in rows {
-        for (sum, row) in sums.iter_mut().zip(correlate_row(top, bottom, t)) {
-            *sum += row;
-        }
-        left -= 1;
-        if left == 0 {
-            for (total, sum) in total.iter_mut().zip(&mut sums) {
-                *total += i64::from(core::mem::take(sum));
+/// `Σ a[k] b[k]`, in pairs so that LLVM forms `SMLAD` on a Cortex-M4.
+fn dot(a: &[i16], b: &[i16]) -> i64 {
+    let mut total = 0;
+    for (a, b) in a.chunks(CORRELATION_CHUNK).zip(b.chunks(CORRELATION_CHUNK)) {
+        let (pairs_a, pairs_b) = (a.chunks_exact(2), b.chunks_exact(2));
+        let mut sum = match (pairs_a.remainder(), pairs_b.remainder()) {
+            (&[x], &[y]) => i32::from(x) * i32::from(y),
+            _ => 0,
+        };
+        for (x, y) in pairs_a.zip(pairs_b) {
+            if let (&[x0, x1], &[y0, y1]) = (x, y) {
+                sum += i32::from(x0) * i32::from(y0) + i32::from(x1) * i32::from(y1);
             }
-            left = chunk_rows;
         }
-    }
-    for (total, sum) in total.iter_mut().zip(sums) {
-        *total += i64::from(sum);
+        total += i64::from(sum);
     }
     total
-}
-
-/// The four neighbours' sums of one template row `t` against source rows `top` and `bottom`.
-///
-/// Each pixel's right neighbour is the next column's pixel and stays in a register; as in
-/// [`interpolate`], the loop ends on two conditions, which keeps it rolled.
-#[inline(always)]
-fn correlate_row<P: Pixel>(top: &[P], bottom: &[P], t: &[i16]) -> [i32; 4] {
-    let (Some((&a, top)), Some((&c, bottom))) = (top.split_first(), bottom.split_first()) else {
-        return [0; 4];
-    };
-    let (mut a, mut c): (i32, i32) = (a.into(), c.into());
-    let mut sums = [0i32; 4];
-    for (k, &t) in t.iter().enumerate() {
-        let (Some(&b), Some(&d)) = (top.get(k), bottom.get(k)) else {
-            break;
-        };
-        let (b, d, t): (i32, i32, i32) = (b.into(), d.into(), t.into());
-        sums[0] += a * t;
-        sums[1] += b * t;
-        sums[2] += c * t;
-        sums[3] += d * t;
-        (a, c) = (b, d);
-    }
-    sums
 }
 
 /// The Scharr derivatives of the template inside its patch.
@@ -331,12 +331,13 @@ fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
     let (win, pp) = (layout.win, layout.patch_pitch);
     for r in 0..win {
         let [up, mid, down] = [r, r + 1, r + 2].map(|k| row(patch, k, pp, pp));
+        let p = layout.pitch;
         scharr_row(
             up,
             mid,
             down,
-            row_mut(dx, r, win, win),
-            row_mut(dy, r, win, win),
+            row_mut(dx, r, p, win),
+            row_mut(dy, r, p, win),
         );
     }
 }

@@ -188,6 +188,16 @@ pub(crate) fn gather(
     cols: usize,
     out: &mut [i16],
 ) {
+    if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
+        // Inside the frame: a plain copy, row by row.
+        let src_rows = block.chunks(frame.stride());
+        for (dst, src) in out.chunks_exact_mut(cols).zip(src_rows) {
+            dst.iter_mut()
+                .zip(src)
+                .for_each(|(d, &s)| *d = i16::from(s));
+        }
+        return;
+    }
     let (width, height) = (frame.width() as isize, frame.height() as isize);
     // The part of each row that lies in the frame, as offsets into the row.
     let start = (-origin.x).clamp(0, cols as isize) as usize;

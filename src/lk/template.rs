@@ -247,9 +247,11 @@ impl<'s, L: Loops> Template<'s, L> {
         let mut total: i64 = 0;
         let rows = self.layout.rows(self.buffers.intensity);
         let rows = rows.zip(self.layout.rows(j));
+        // The gain is at most 2^18 and I at most 8160: a I < 2^31 is exact in 32 bits.
+        let gain = gain as i32;
         for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
-                let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
+                let r = (i64::from(jv) << 16) - i64::from(gain * i32::from(i)) - bias;
                 total += r.abs();
             }
         }
@@ -262,6 +264,12 @@ impl<'s, L: Loops> Template<'s, L> {
 /// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and
 /// `(gxx - tau)(gyy - tau) >= gxy²`.
 fn min_eigenvalue_at_least(s: &TemplateSums, tau: u64) -> bool {
+    let small = |v: i64| v.unsigned_abs() < 1 << 31;
+    if small(s.gxx) && small(s.gxy) && small(s.gyy) && tau < 1 << 31 {
+        // Every product below 2^62: the same test in 64 bits.
+        let (a, b, c, tau) = (s.gxx, s.gxy, s.gyy, tau as i64);
+        return a >= tau && c >= tau && (a - tau) * (c - tau) >= b * b && a * c - b * b > 0;
+    }
     let tau = tau as i128;
     let (a, b, c) = (s.gxx as i128, s.gxy as i128, s.gyy as i128);
     let det = a * c - b * b;
@@ -280,20 +288,21 @@ mod tests {
             (50, -20, 400),
             (1000, 10, 10),
         ];
-        for (a, b, c) in cases {
+        // At 2^26 the sums take the 128-bit path, at 1 the 64-bit one.
+        for ((a, b, c), scale) in cases.into_iter().flat_map(|g| [(g, 1), (g, 1 << 26)]) {
             let s = TemplateSums {
-                gxx: a,
-                gxy: b,
-                gyy: c,
+                gxx: a * scale,
+                gxy: b * scale,
+                gyy: c * scale,
                 ..Default::default()
             };
             let (a, b, c) = (a as f64, b as f64, c as f64);
             let lambda = (a + c - ((a - c) * (a - c) + 4.0 * b * b).sqrt()) / 2.0;
             for tau in [0u64, 1, 5, 9, 10, 11, 30, 49, 50, 51, 99, 100, 101] {
                 assert_eq!(
-                    min_eigenvalue_at_least(&s, tau),
+                    min_eigenvalue_at_least(&s, tau * scale as u64),
                     lambda >= tau as f64 && a * c - b * b > 0.0,
-                    "G = [{a} {b}; {b} {c}], tau {tau}"
+                    "G = [{a} {b}; {b} {c}] * {scale}, tau {tau}"
                 );
             }
         }

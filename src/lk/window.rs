@@ -236,29 +236,27 @@ pub(crate) fn mask_outside(
     dx: &mut [i16],
     dy: &mut [i16],
 ) {
-    // The template starts one pixel inside the patch.
-    let (x0, y0) = (origin.x + 1, origin.y + 1);
-    // A sample between pixels needs its right and lower neighbours too.
+    // The template starts one pixel inside the patch; a sample between pixels needs its right
+    // and lower neighbours too.
     let reach_x = isize::from(origin.w[1] != 0 || origin.w[3] != 0);
     let reach_y = isize::from(origin.w[2] != 0 || origin.w[3] != 0);
-    let inside_x = |c: usize| {
-        let x = x0 + c as isize;
-        x >= 0 && x + reach_x < frame.width() as isize
+    // Template columns and rows `first..end` lie in the frame.
+    let inside = |start: isize, reach: isize, size: usize, count: usize| {
+        let first = (-start).clamp(0, count as isize);
+        let end = (size as isize - reach - start).clamp(first, count as isize);
+        (first as usize, end as usize)
     };
-    let inside_y = |r: usize| {
-        let y = y0 + r as isize;
-        y >= 0 && y + reach_y < frame.height() as isize
-    };
-    let rows = dx
-        .chunks_exact_mut(layout.pitch)
-        .zip(dy.chunks_exact_mut(layout.pitch));
-    for (r, (dx_row, dy_row)) in rows.enumerate() {
-        let row_inside = inside_y(r);
-        for (c, (gx, gy)) in dx_row.iter_mut().zip(dy_row.iter_mut()).enumerate() {
-            if !row_inside || !inside_x(c) {
-                *gx = 0;
-                *gy = 0;
-            }
+    let (first_col, end_col) = inside(origin.x + 1, reach_x, frame.width(), layout.pitch);
+    let (first_row, end_row) = inside(origin.y + 1, reach_y, frame.height(), layout.win);
+    for buf in [dx, dy] {
+        for (r, row) in buf.chunks_exact_mut(layout.pitch).enumerate() {
+            let (left, right) = match r {
+                _ if r < first_row || r >= end_row => (row.len(), row.len()),
+                _ => (first_col, end_col),
+            };
+            let (outside_left, rest) = row.split_at_mut(left.min(row.len()));
+            outside_left.fill(0);
+            rest.iter_mut().skip(right - left).for_each(|v| *v = 0);
         }
     }
 }
@@ -414,6 +412,42 @@ mod tests {
             assert!(t.dx[..9].iter().all(|&g| g == 3 * 32));
             assert!(t.dy[..9].iter().all(|&g| g == 32));
             assert_eq!(t.intensity[4], (30 * 3 + 30) * 32);
+        }
+    }
+
+    /// The mask zeroes exactly the gradients of template pixels whose sample, with the
+    /// neighbours it reads, is not wholly in the frame.
+    #[test]
+    fn mask_zeroes_the_pixels_outside() {
+        let px = [0u8; 30 * 20];
+        let frame = ImageView::packed(&px, 30, 20).unwrap();
+        for layout in [Flat::layout(5), Rows::layout(5), Rows::layout(9)] {
+            let win = layout.win;
+            for (cx, cy) in [
+                (0, 0),
+                (29, 19),
+                (2, 10),
+                (27, 18),
+                (-3, 5),
+                (15, 23),
+                (15, 10),
+            ] {
+                for frac in [0, 0x8000, 0x4000] {
+                    let origin =
+                        WindowOrigin::new((cx << 16) + frac, (cy << 16) + frac / 2, win / 2 + 1);
+                    let n = layout.window_len();
+                    let (mut dx, mut dy) = ([1i16; 256], [1i16; 256]);
+                    mask_outside(&frame, &origin, &layout, &mut dx[..n], &mut dy[..n]);
+                    for k in 0..n {
+                        let (r, c) = ((k / layout.pitch) as isize, (k % layout.pitch) as isize);
+                        let (x, y) = (origin.x + 1 + c, origin.y + 1 + r);
+                        let reach_x = isize::from(origin.w[1] != 0 || origin.w[3] != 0);
+                        let reach_y = isize::from(origin.w[2] != 0 || origin.w[3] != 0);
+                        let inside = x >= 0 && x + reach_x < 30 && y >= 0 && y + reach_y < 20;
+                        assert_eq!((dx[k], dy[k]), if inside { (1, 1) } else { (0, 0) }, "{k}");
+                    }
+                }
+            }
         }
     }
 

@@ -163,18 +163,6 @@ trait Pixel: Copy + Into<i32> {}
 impl Pixel for u8 {}
 impl Pixel for i16 {}
 
-/// Row `r` of a buffer of `pitch`-value rows, `len` values long (empty past the end).
-#[inline(always)]
-fn row<T>(buf: &[T], r: usize, pitch: usize, len: usize) -> &[T] {
-    buf.get(r * pitch..r * pitch + len).unwrap_or(&[])
-}
-
-/// [`row`] for writing.
-#[inline(always)]
-fn row_mut<T>(buf: &mut [T], r: usize, pitch: usize, len: usize) -> &mut [T] {
-    buf.get_mut(r * pitch..r * pitch + len).unwrap_or(&mut [])
-}
-
 /// Samples the template patch into `patch`, and its interior, the template's intensities, into
 /// `intensity` as well: storing each interior sample twice costs less than copying afterwards.
 #[inline(always)]
@@ -328,17 +316,15 @@ fn dot(a: &[i16], b: &[i16]) -> i64 {
 
 /// The Scharr derivatives of the template inside its patch.
 fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
-    let (win, pp) = (layout.win, layout.patch_pitch);
-    for r in 0..win {
-        let [up, mid, down] = [r, r + 1, r + 2].map(|k| row(patch, k, pp, pp));
-        let p = layout.pitch;
-        scharr_row(
-            up,
-            mid,
-            down,
-            row_mut(dx, r, p, win),
-            row_mut(dy, r, p, win),
-        );
+    let (win, p) = (layout.win, layout.pitch);
+    let patch_rows = patch.chunks_exact(layout.patch_pitch);
+    let below = patch_rows.clone().skip(1).zip(patch_rows.clone().skip(2));
+    let outputs = dx.chunks_exact_mut(p).zip(dy.chunks_exact_mut(p));
+    for ((dx_row, dy_row), (up, (mid, down))) in outputs.zip(patch_rows.zip(below)) {
+        let (Some(dx_row), Some(dy_row)) = (dx_row.get_mut(..win), dy_row.get_mut(..win)) else {
+            continue;
+        };
+        scharr_row(up, mid, down, dx_row, dy_row);
     }
 }
 

@@ -90,11 +90,14 @@ impl Loops for Rows {
     ) {
         let block = next_block(frame, origin, layout, source);
         let w = origin.w.map(i32::from);
-        let p = layout.pitch;
-        let run = |k: usize| block.get(k..).unwrap_or(&[]);
-        let quads = run(0).iter().zip(run(1)).zip(run(p).iter().zip(run(p + 1)));
-        for (o, ((&a, &b), (&c, &d))) in j.iter_mut().take(layout.win * p).zip(quads) {
-            *o = bilinear(w, a.into(), b.into(), c.into(), d.into());
+        let rows = row_pairs(block, layout.pitch).zip(j.chunks_exact_mut(layout.pitch));
+        for ((top, bottom), out) in rows {
+            interpolate(
+                &w,
+                top,
+                bottom,
+                out.get_mut(..layout.win).unwrap_or(&mut []),
+            );
         }
         clear_padding(layout, j);
     }
@@ -270,23 +273,22 @@ fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correla
 /// `64^2 * 255 < 2^31`.
 fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
     let (p, win) = (layout.pitch, layout.win);
-    let sum = |values: &mut dyn Iterator<Item = &i16>| values.map(|&v| i32::from(v)).sum::<i32>();
     let square = block.get(..p * p).unwrap_or(&[]);
-    let total = sum(&mut square.iter());
-    let (top, bottom) = (square.get(..p), square.get(win * p..));
-    let (top, bottom) = (
-        sum(&mut top.into_iter().flatten()),
-        sum(&mut bottom.into_iter().flatten()),
-    );
-    let left = sum(&mut square.iter().step_by(p.max(1)));
-    let right = sum(&mut square.iter().skip(win).step_by(p.max(1)));
-    let corner = |r: usize, c: usize| square.get(r * p + c).map_or(0, |&v| i32::from(v));
-    let without = |row: i32, corner_col: i32, col: i32| total - row - col + corner_col;
+    let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
+    let total: i32 = square.iter().map(|&v| i32::from(v)).sum();
+    let (mut left, mut right) = (0, 0);
+    for row in square.chunks_exact(p) {
+        left += row.first().map_or(0, |&v| i32::from(v));
+        right += row.last().map_or(0, |&v| i32::from(v));
+    }
+    let row_sum = |r: usize| -> i32 { (0..p).map(|c| at(r * p + c)).sum() };
+    let (top, bottom) = (row_sum(0), row_sum(win));
+    let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
     [
-        without(bottom, corner(win, win), right),
-        without(bottom, corner(win, 0), left),
-        without(top, corner(0, win), right),
-        without(top, corner(0, 0), left),
+        without(bottom, right, win * p + win),
+        without(bottom, left, win * p),
+        without(top, right, win),
+        without(top, left, 0),
     ]
     .map(i64::from)
 }
@@ -295,23 +297,30 @@ fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
 /// (widths in `correlation.rs`).
 const CORRELATION_CHUNK: usize = 1024;
 
-/// `Σ a[k] b[k]`, in pairs so that LLVM forms `SMLAD` on a Cortex-M4.
+/// `Σ a[k] b[k]`, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
 fn dot(a: &[i16], b: &[i16]) -> i64 {
-    let mut total = 0;
-    for (a, b) in a.chunks(CORRELATION_CHUNK).zip(b.chunks(CORRELATION_CHUNK)) {
-        let (pairs_a, pairs_b) = (a.chunks_exact(2), b.chunks_exact(2));
-        let mut sum = match (pairs_a.remainder(), pairs_b.remainder()) {
-            (&[x], &[y]) => i32::from(x) * i32::from(y),
-            _ => 0,
-        };
-        for (x, y) in pairs_a.zip(pairs_b) {
-            if let (&[x0, x1], &[y0, y1]) = (x, y) {
-                sum += i32::from(x0) * i32::from(y0) + i32::from(x1) * i32::from(y1);
-            }
-        }
-        total += i64::from(sum);
+    if a.len() <= CORRELATION_CHUNK {
+        return i64::from(dot_chunk(a, b));
     }
-    total
+    let chunks = a.chunks(CORRELATION_CHUNK).zip(b.chunks(CORRELATION_CHUNK));
+    chunks.map(|(a, b)| i64::from(dot_chunk(a, b))).sum()
+}
+
+/// `Σ a[k] b[k]` of at most [`CORRELATION_CHUNK`] pixel-template products, in pairs so that
+/// LLVM forms `SMLAD` on a Cortex-M4.
+#[inline(always)]
+fn dot_chunk(a: &[i16], b: &[i16]) -> i32 {
+    let (pairs_a, pairs_b) = (a.chunks_exact(2), b.chunks_exact(2));
+    let mut sum = match (pairs_a.remainder(), pairs_b.remainder()) {
+        (&[x], &[y]) => i32::from(x) * i32::from(y),
+        _ => 0,
+    };
+    for (x, y) in pairs_a.zip(pairs_b) {
+        if let (&[x0, x1], &[y0, y1]) = (x, y) {
+            sum += i32::from(x0) * i32::from(y0) + i32::from(x1) * i32::from(y1);
+        }
+    }
+    sum
 }
 
 /// The Scharr derivatives of the template inside its patch.

@@ -129,7 +129,8 @@ pub(crate) fn to_i32(x: i64, y: i64) -> (i32, i32, u32) {
 pub(crate) fn round_shift(v: i64, t: i32) -> i64 {
     match t {
         0 => v,
-        1..=62 => (v + (1 << (t - 1))) >> t,
+        // (v + 2^(t-1)) >> t without forming 2^(t-1): one variable 64-bit shift fewer.
+        1..=62 => ((v >> (t - 1)) + 1) >> 1,
         63.. => 0,
         _ => v.saturating_mul(1 << (-t).min(40)),
     }

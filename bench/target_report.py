@@ -194,17 +194,17 @@ def profile(records, points):
         # The iteration-count variants stop every point before it converges: none is tracked.
         error = f"{v['worst_error']} px" if int(v["tracked_min"]) else "none tracked"
         lines.append(row(desc, v["track"], f"{v['track_per_point']}, {error}"))
-    one_it, two_it, budget = (variants.get(k) for k in ("one_iteration", "two_iterations", "budget"))
-    if one_it and two_it and budget:
-        iteration = (int(two_it["track"]) - int(one_it["track"])) / points
-        template = int(one_it["track"]) / points - iteration
-        levels = int(budget["max_level"]) + 1
-        per_point = int(budget["track"]) / points
-        iterations = (per_point - levels * template) / iteration
-        lines.append(row("one template (window sample, Scharr, sums)", round(template), "per point and level"))
-        lines.append(row("one LK iteration (resample, sums, step)", round(iteration), "per point"))
-        lines.append(row("implied iterations per point (all levels)", f"{iterations:.1f}",
-                         f"{iterations / levels:.1f} per level"))
+    runs = [variants.get(k) for k in ("one_iteration", "two_iterations", "three_iterations")]
+    if all(runs):
+        # At level 0 with epsilon 0 every point runs exactly 1, 2 or 3 iterations. The first
+        # computes the window's correlations with the template; a later one reuses them unless
+        # the estimate moved to another integer pixel (the first step often does, the second
+        # rarely).
+        one, two, three = (int(r["track"]) / points for r in runs)
+        lines.append(row("one template and its first iteration", round(one),
+                         "per point and level: sample, Scharr, sums, correlations, step"))
+        lines.append(row("second iteration", round(two - one), "per point, new correlations if moved"))
+        lines.append(row("third iteration", round(three - two), "per point, mostly the same pixel"))
     lines.append("")
     return "\n".join(lines)
 

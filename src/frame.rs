@@ -166,10 +166,18 @@ impl<'a> ImageView<'a> {
         self.data.get(start..start + self.width).unwrap_or(&[])
     }
 
-    /// The whole buffer: row `y` starts at `y * stride()`.
+    /// The pixels of the `cols` x `rows` block whose top-left pixel is (`x`, `y`), from that
+    /// pixel to the block's last, rows [`ImageView::stride`] apart; `None` unless the block lies
+    /// wholly in the image.
     #[inline]
-    pub(crate) fn pixels(&self) -> &'a [u8] {
+    pub(crate) fn block(&self, x: isize, y: isize, cols: usize, rows: usize) -> Option<&'a [u8]> {
+        let (x, y) = (usize::try_from(x).ok()?, usize::try_from(y).ok()?);
+        if x + cols > self.width || y + rows > self.height || rows == 0 {
+            return None;
+        }
+        let start = y * self.stride + x;
         self.data
+            .get(start..start + (rows - 1) * self.stride + cols)
     }
 
     /// The pixel at (`x`, `y`), or `None` outside the image.

@@ -292,15 +292,20 @@ fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
 }
 
 /// `out[x] = [1 4 6 4 1] . sums[2x..2x+5] / 256`, rounded.
+///
+/// Each output shares three sums with the next; they are carried, so each output reads two.
 fn horizontal_filter(sums: &[u16], out: &mut [u8]) {
-    // Pairs (2x, 2x+1), (2x+2, 2x+3) and the single 2x+4, as three aligned iterators.
-    let pairs = sums.chunks_exact(2);
-    let next_pairs = sums.get(2..).unwrap_or(&[]).chunks_exact(2);
-    let last = sums.get(4..).unwrap_or(&[]).iter().step_by(2);
-    for (o, ((p, q), &e)) in out.iter_mut().zip(pairs.zip(next_pairs).zip(last)) {
-        let (a, b, c, d) = (p[0], p[1], q[0], q[1]);
-        let total = u32::from(a) + 4 * u32::from(b) + 6 * u32::from(c) + 4 * u32::from(d);
-        *o = ((total + u32::from(e) + 128) >> 8) as u8;
+    let (Some(&[a, b, c]), Some(rest)) = (sums.get(..3), sums.get(3..)) else {
+        return;
+    };
+    let (mut a, mut b, mut c) = (u32::from(a), u32::from(b), u32::from(c));
+    for (o, pair) in out.iter_mut().zip(rest.chunks_exact(2)) {
+        let &[d, e] = pair else {
+            continue;
+        };
+        let (d, e) = (u32::from(d), u32::from(e));
+        *o = ((a + 4 * (b + d) + 6 * c + e + 128) >> 8) as u8;
+        (a, b, c) = (c, d, e);
     }
 }
 

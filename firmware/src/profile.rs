@@ -11,8 +11,8 @@ use crate::scene::{FRAMES, HEIGHT, WIDTH};
 use crate::stages::{Stage, StageTimes};
 use crate::summary::Summary;
 
-/// Where the instructions go: the costs of one template and one iteration, and variants of the
-/// budget configuration over the same sequence. Reported, never checked.
+/// Where the instructions go: the costs of one template and of the iterations after it, and
+/// variants of the budget configuration over the same sequence. Reported, never checked.
 // Never inlined: bench/target_profile.py stops counting where this function is first entered.
 #[inline(never)]
 pub fn run(meter: &Meter, buffers: Buffers) {
@@ -35,6 +35,13 @@ pub fn run(meter: &Meter, buffers: Buffers) {
             "two_iterations",
             LkParams {
                 max_iterations: 2,
+                ..one_level
+            },
+        ),
+        (
+            "three_iterations",
+            LkParams {
+                max_iterations: 3,
                 ..one_level
             },
         ),

@@ -4,25 +4,27 @@
 //! are padding, kept at zero where they would enter a sum. Sampling, derivatives and window sums
 //! are then single flat loops over `rows * pitch` values, which vectorise without a scalar tail
 //! per row (a 21-px row would leave one of 5 px). Source pixels are first gathered into an `i16`
-//! block so that the interpolation is one flat loop of four equal-length shifted runs.
+//! block so that the interpolation, and each bilinear neighbour's correlation with the
+//! template, is one flat loop over equal-length shifted runs.
 //!
 //! # Integer widths
 //!
 //! Intensities are grey x 32 (`<= 8160`), gradients `|Ix| <= 4080`. A product of two is at most
 //! `8160^2 = 66_585_600`, so [`CHUNK`] = 64 consecutive products sum to at most `4_261_478_400`:
-//! below `u32::MAX` for `I*J` (both non-negative) and, for the signed products
+//! below `u32::MAX` for `I*I` (non-negative) and, for the signed products
 //! (`|I*Ix| <= 33_292_800`, 64 of them `<= 2_130_739_200`), below `i32::MAX`. Chunk sums are
 //! exact in 32 bits (and vectorise), windows add chunks in 64 bits (`<= 2.7e11` at 63 x 63).
 
-use super::template::{MatchSums, TemplateSums};
+use super::correlation::Correlations;
+use super::template::TemplateSums;
 use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
     WindowOrigin,
 };
 use crate::frame::ImageView;
 
-/// Products summed in 32 bits before widening: the most that provably cannot overflow.
-pub(crate) const CHUNK: usize = 64;
+/// Template products summed in 32 bits before widening: the most that provably cannot overflow.
+const CHUNK: usize = 64;
 
 /// The padded, flat loops.
 pub(crate) struct Flat;
@@ -59,18 +61,69 @@ impl Loops for Flat {
         template_sums(out.intensity, out.dx, out.dy)
     }
 
-    fn match_window(
+    fn correlate(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        (source, j): (&mut [i16], &mut [i16]),
+        source: &mut [i16],
         t: &TemplateBuffers<'_>,
-        gain_bias: bool,
-    ) -> MatchSums {
+    ) -> Correlations {
+        let (win, p) = (layout.win, layout.pitch);
+        gather(frame, origin, win + 1, p, source);
+        if let Some(slack) = source.get_mut((win + 1) * p) {
+            *slack = 0;
+        }
+        // Each neighbour's pixels under the window are one run of the gathered rows; the
+        // template's zero padding drops the columns past the window from the products.
+        let mut c = Correlations::default();
+        for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
+            let run = source.get(offset..offset + win * p).unwrap_or(&[]);
+            let plain = layout.rows(run).flatten().map(|&v| i64::from(v)).sum();
+            let [si, sx, sy] = correlate_run(run, t);
+            *sums = [plain, si, sx, sy];
+        }
+        c
+    }
+
+    fn sample_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        source: &mut [i16],
+        j: &mut [i16],
+    ) {
         sample(frame, origin, layout.win, layout.pitch, source, j);
         clear_padding(layout, j);
-        match_sums(j, t.intensity, t.dx, t.dy, gain_bias)
     }
+}
+
+/// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31`
+/// (widths in `correlation.rs`).
+const CORRELATION_CHUNK: usize = 1024;
+
+/// `[ΣP·I, ΣP·Ix, ΣP·Iy]` of a run of source pixels against the template.
+fn correlate_run(run: &[i16], t: &TemplateBuffers<'_>) -> [i64; 3] {
+    let mut sums = [0i64; 3];
+    let chunks = run
+        .chunks(CORRELATION_CHUNK)
+        .zip(t.intensity.chunks(CORRELATION_CHUNK))
+        .zip(
+            t.dx.chunks(CORRELATION_CHUNK)
+                .zip(t.dy.chunks(CORRELATION_CHUNK)),
+        );
+    for ((p, i), (gx, gy)) in chunks {
+        let (mut si, mut sx, mut sy) = (0i32, 0i32, 0i32);
+        for ((&p, &i), (&gx, &gy)) in p.iter().zip(i).zip(gx.iter().zip(gy)) {
+            let p = i32::from(p);
+            si += p * i32::from(i);
+            sx += p * i32::from(gx);
+            sy += p * i32::from(gy);
+        }
+        for (sum, chunk) in sums.iter_mut().zip([si, sx, sy]) {
+            *sum += i64::from(chunk);
+        }
+    }
+    sums
 }
 
 /// Zeroes the padding columns of a window buffer so they add nothing to window sums.
@@ -184,47 +237,12 @@ fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
     s
 }
 
-/// The match sums, in 32-bit chunks widened to 64 bits.
-pub(crate) fn match_sums(
-    j: &[i16],
-    intensity: &[i16],
-    dx: &[i16],
-    dy: &[i16],
-    gain_bias: bool,
-) -> MatchSums {
-    let mut m = MatchSums::default();
-    let chunks = j
-        .chunks(CHUNK)
-        .zip(intensity.chunks(CHUNK))
-        .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
-    for ((j, i), (gx, gy)) in chunks {
-        // Exact in 32 bits for 64 products (module docs).
-        let (mut sjx, mut sjy) = (0i32, 0i32);
-        for ((&jv, &gx), &gy) in j.iter().zip(gx).zip(gy) {
-            sjx += i32::from(jv) * i32::from(gx);
-            sjy += i32::from(jv) * i32::from(gy);
-        }
-        m.sjx += i64::from(sjx);
-        m.sjy += i64::from(sjy);
-        if gain_bias {
-            let (mut sj, mut sji) = (0i32, 0u32);
-            for (&jv, &i) in j.iter().zip(i) {
-                sj += i32::from(jv);
-                sji += (i32::from(jv) * i32::from(i)) as u32;
-            }
-            m.sj += i64::from(sj);
-            m.sji += i64::from(sji);
-        }
-    }
-    m
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values the
-    /// sampler and the Scharr filter can produce, checked against 128-bit arithmetic.
+    /// Every sum over a 63 x 63 window (the largest accepted) at the extreme values of pixels,
+    /// samples and the Scharr filter, checked against 128-bit arithmetic.
     #[test]
     fn window_sums_are_exact_at_the_extremes() {
         const SIDE: usize = super::super::MAX_WINDOW;
@@ -241,11 +259,16 @@ mod tests {
             assert_eq!(s.sii as i128, n * 8160 * 8160);
             assert_eq!(s.six as i128, n * 8160 * gx);
             assert_eq!(s.siy as i128, n * 8160 * gy);
-            let j = [8160i16; SIDE * SIDE];
-            let m = match_sums(&j, &intensity, &dx, &dy, true);
-            assert_eq!(m.sji as i128, n * 8160 * 8160);
-            assert_eq!(m.sjx as i128, n * 8160 * gx);
-            assert_eq!(m.sjy as i128, n * 8160 * gy);
+            let t = TemplateBuffers {
+                intensity: &intensity,
+                dx: &dx,
+                dy: &dy,
+            };
+            let p = [255i16; SIDE * SIDE];
+            let [si, sx, sy] = correlate_run(&p, &t);
+            assert_eq!(si as i128, n * 255 * 8160);
+            assert_eq!(sx as i128, n * 255 * gx);
+            assert_eq!(sy as i128, n * 255 * gy);
         }
     }
 }

@@ -38,6 +38,7 @@
 //! ```
 
 // Both sets of window loops build on every target so that the tests compare them bit for bit.
+mod correlation;
 #[cfg_attr(
     not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
     allow(dead_code)
@@ -55,6 +56,7 @@ mod window;
 use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
+use correlation::Correlations;
 use template::{Step, Template, TemplateError};
 use window::{Loops, TemplateBuffers, TemplateOut, WindowOrigin};
 
@@ -427,7 +429,11 @@ impl LucasKanade {
             return (outcome, 0);
         }
         let origin = WindowOrigin::new(estimate.0, estimate.1, self.params.window / 2);
-        (outcome, template.residual(next, &origin, j.scratch()))
+        let c = *j.correlations(&template, next, &origin);
+        (
+            outcome,
+            template.residual(next, &origin, &c, (j.source, j.values)),
+        )
     }
 
     /// The LK iterations of one level.
@@ -445,7 +451,7 @@ impl LucasKanade {
             if origin.misses(next, win) {
                 return LevelOutcome::LeftFrame;
             }
-            let step = template.step(next, &origin, j.scratch());
+            let step = template.step(j.correlations(template, next, &origin), origin.w);
             estimate.0 = estimate.0.saturating_add(step.dx);
             estimate.1 = estimate.1.saturating_add(step.dy);
             let (sx, sy) = (i64::from(step.dx), i64::from(step.dy));
@@ -490,22 +496,43 @@ impl LucasKanade {
         let buffers = TemplateBuffers { intensity, dx, dy };
         let illumination = self.params.illumination;
         match Template::new(buffers, sums, layout, illumination, self.min_eigen) {
-            Ok(t) => Some((t, NextWindow { source, values })),
+            Ok(t) => Some((
+                t,
+                NextWindow {
+                    source,
+                    values,
+                    cached: None,
+                },
+            )),
             Err(TemplateError::LowTexture) => None,
         }
     }
 }
 
-/// Scratch for the next frame's window: its samples and the buffer its source pixels may go
-/// through.
+/// Scratch for the next frame's window at one level: its samples, the buffer its source pixels
+/// may go through, and the correlations of the integer position last visited.
 struct NextWindow<'s> {
     source: &'s mut [i16],
     values: &'s mut [i16],
+    cached: Option<((isize, isize), Correlations)>,
 }
 
 impl NextWindow<'_> {
-    fn scratch(&mut self) -> (&mut [i16], &mut [i16]) {
-        (self.source, self.values)
+    /// The correlations of the window at `origin` with the template: those of the last visit
+    /// when the integer position is the same (they do not depend on the sub-pixel offset).
+    fn correlations<L: Loops>(
+        &mut self,
+        template: &Template<'_, L>,
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+    ) -> &Correlations {
+        let position = (origin.x, origin.y);
+        if self.cached.as_ref().is_some_and(|(at, _)| *at != position) {
+            self.cached = None;
+        }
+        let (layout, t, source) = (template.layout(), template.buffers(), &mut *self.source);
+        let correlate = || (position, L::correlate(frame, origin, layout, source, t));
+        &self.cached.get_or_insert_with(correlate).1
     }
 }
 

@@ -1,26 +1,30 @@
 //! Window loops for scalar cores (the Cortex-M4 of flight controllers).
 //!
-//! A core without SIMD gains nothing from [`super::flat`]'s padded rows and flat loops and pays
-//! for every padding value, the gathered copy of the source pixels and the clears. Here window
-//! buffers are packed (`pitch == window`), the patch has a one-pixel border and no padding, and
-//! samples are interpolated straight from the frame's rows; only a window whose source pixels
-//! cross the frame's edge is gathered first (a [`Source`] of either kind).
+//! A core without SIMD pays for every padding value of [`super::flat`]'s rows and for its
+//! clears. Here window buffers have a single padding column (`pitch == window + 1`, zero in the
+//! template), just enough for the next frame's source block, gathered once as `i16` with the
+//! same pitch, to line up with them: each bilinear neighbour's correlation with a template array
+//! is then one flat dot product, which LLVM turns into `SMLAD` (two multiply-accumulates per
+//! instruction). The template patch has a one-pixel border and no padding and is interpolated
+//! straight from the frame's rows (a [`Source`] of either kind).
 //!
-//! Each operation on a window is one function, not inlined, whose loops run row by row: a
-//! Cortex-M4 has thirteen free registers, and a loop inlined into a larger function or unrolled
-//! four-fold (as LLVM does to short loops) spills the bilinear weights and accumulators. The
-//! interpolation loop ends on two conditions, which keeps LLVM from unrolling it. Every value
-//! equals the flat loops' bit for bit: the same bilinear sums and rounding ([`bilinear`]), the
-//! same Scharr sums ([`rescale`]) and exact window sums.
+//! The loops run row by row, each in a small function of its own: a Cortex-M4 has thirteen
+//! free registers, and a loop inlined into a larger function or unrolled four-fold (as LLVM does
+//! to short loops) spills the bilinear weights and accumulators. The loops over pixel pairs end
+//! on two conditions, which keeps LLVM from unrolling them. Every value equals the flat loops'
+//! bit for bit: the same bilinear sums and rounding ([`bilinear`]), the same Scharr sums
+//! ([`rescale`]) and exact window sums and correlations.
 //!
 //! # Integer widths
 //!
-//! Sums of one row (at most [`MAX_WINDOW`] = 63 values) are exact in 32 bits: a product of two
-//! values is at most `8160^2 = 66_585_600`, 63 of them `4_194_892_800 < 2^32` for the
-//! non-negative `I*J` and `I*I` (kept as `u32`), and `|I*Ix| <= 33_292_800`, 63 of them
-//! `2_097_446_400 < 2^31`. Rows add into 64 bits.
+//! Template sums over at most [`MAX_WINDOW`] = 63 values are exact in 32 bits: a product of
+//! two values is at most `8160^2 = 66_585_600`, 63 of them `4_194_892_800 < 2^32` for the
+//! non-negative `I*I` (kept as `u32`), and `|I*Ix| <= 33_292_800`, 63 of them
+//! `2_097_446_400 < 2^31`; chunks add into 64 bits. Correlations are narrower still (see
+//! `correlation.rs`).
 
-use super::template::{MatchSums, TemplateSums};
+use super::correlation::Correlations;
+use super::template::TemplateSums;
 use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
     WindowOrigin,
@@ -34,10 +38,11 @@ impl Loops for Rows {
     fn layout(win: usize) -> Layout {
         Layout {
             win,
-            pitch: win,
+            pitch: win + 1,
             patch_pitch: win + 2,
             patch_len: (win + 2) * (win + 2),
-            // The patch's source pixels when they must be gathered.
+            // The patch's source pixels when they must be gathered; the next window's, always,
+            // need `(win + 1)^2` and a value of slack.
             source_len: (win + 3) * (win + 3),
         }
     }
@@ -52,46 +57,85 @@ impl Loops for Rows {
         let w = origin.w.map(i32::from);
         let TemplateOut { intensity, dx, dy } = out;
         match Source::of(frame, origin, layout.win + 2, source) {
-            Source::Frame(rows) => sample_patch(&w, &rows, layout, patch, intensity),
-            Source::Gathered(rows) => sample_patch(&w, &rows, layout, patch, intensity),
+            Source::Frame(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
+            Source::Gathered(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
         }
         derivatives(patch, layout, dx, dy);
+        for buf in [&mut *intensity, &mut *dx, &mut *dy] {
+            clear_padding(layout, buf);
+        }
         if !origin.fits(frame, layout.win + 2, layout.win + 2) {
             mask_outside(frame, origin, layout, dx, dy);
         }
         template_sums(intensity, dx, dy)
     }
 
-    fn match_window(
+    fn correlate(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        (source, j): (&mut [i16], &mut [i16]),
+        source: &mut [i16],
         t: &TemplateBuffers<'_>,
-        gain_bias: bool,
-    ) -> MatchSums {
+    ) -> Correlations {
+        let block = next_block(frame, origin, layout, source);
+        correlate(block, layout, t)
+    }
+
+    fn sample_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        source: &mut [i16],
+        j: &mut [i16],
+    ) {
+        let block = next_block(frame, origin, layout, source);
         let w = origin.w.map(i32::from);
-        let win = layout.win;
-        match Source::of(frame, origin, win, source) {
-            Source::Frame(rows) => sample(&w, &rows, win, j),
-            Source::Gathered(rows) => sample(&w, &rows, win, j),
+        let rows = row_pairs(block, layout.pitch).zip(j.chunks_exact_mut(layout.pitch));
+        for ((top, bottom), out) in rows {
+            interpolate(
+                &w,
+                top,
+                bottom,
+                out.get_mut(..layout.win).unwrap_or(&mut []),
+            );
         }
-        if gain_bias {
-            match_sums::<true>(j, t)
-        } else {
-            match_sums::<false>(j, t)
+        clear_padding(layout, j);
+    }
+}
+
+/// Gathers the next window's `(win + 1)` square of source pixels into `source`, rows
+/// `layout.pitch` apart, with a zero after it: the run of each bilinear neighbour then lines up
+/// with the window buffers.
+fn next_block<'s>(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    layout: &Layout,
+    source: &'s mut [i16],
+) -> &'s [i16] {
+    let n = layout.win + 1;
+    gather(frame, origin, n, n, source);
+    if let Some(slack) = source.get_mut(n * n) {
+        *slack = 0;
+    }
+    source.get(..n * n + 1).unwrap_or(&[])
+}
+
+/// Zeroes the padding column of a window buffer.
+fn clear_padding(layout: &Layout, buf: &mut [i16]) {
+    for row in buf.chunks_exact_mut(layout.pitch) {
+        if let Some(pad) = row.get_mut(layout.win) {
+            *pad = 0;
         }
     }
 }
 
 /// The source pixels under a `side` x `side` window and their bilinear neighbours: a
-/// `(side + 1)` square.
+/// `(side + 1)` square, from its top-left pixel on, rows `stride` apart.
 enum Source<'a> {
-    /// The frame's own rows: the square's columns lie in the frame (rows above or below it
-    /// repeat its first or last row).
-    Frame(SourceRows<'a, u8>),
-    /// A copy with the frame's edge pixels repeated beyond its left or right edge.
-    Gathered(SourceRows<'a, i16>),
+    /// The frame's own pixels: the square lies in the frame.
+    Frame(&'a [u8], usize),
+    /// A copy with the frame's edge pixels repeated outside it.
+    Gathered(&'a [i16], usize),
 }
 
 impl<'a> Source<'a> {
@@ -102,46 +146,19 @@ impl<'a> Source<'a> {
         scratch: &'a mut [i16],
     ) -> Self {
         let n = side + 1;
-        if origin.x >= 0 && origin.x as usize + n <= frame.width() {
-            return Source::Frame(SourceRows {
-                px: frame.pixels(),
-                stride: frame.stride(),
-                x: origin.x as usize,
-                y: origin.y,
-                last_row: frame.height() as isize - 1,
-                n,
-            });
+        if let Some(px) = frame.block(origin.x, origin.y, n, n) {
+            return Source::Frame(px, frame.stride());
         }
         gather(frame, origin, n, n, scratch);
-        Source::Gathered(SourceRows {
-            px: scratch,
-            stride: n,
-            x: 0,
-            y: 0,
-            last_row: n as isize - 1,
-            n,
-        })
+        Source::Gathered(scratch.get(..n * n).unwrap_or(&[]), n)
     }
 }
 
-/// The rows of a source square: row `r` is `n` pixels from `px[y' * stride + x]`, with
-/// `y' = y + r` clamped to `0..=last_row`.
-struct SourceRows<'a, P> {
-    px: &'a [P],
-    stride: usize,
-    x: usize,
-    y: isize,
-    last_row: isize,
-    n: usize,
-}
-
-impl<'a, P: Pixel> SourceRows<'a, P> {
-    #[inline(always)]
-    fn row(&self, r: usize) -> &'a [P] {
-        let y = (self.y + r as isize).clamp(0, self.last_row) as usize;
-        let row = self.px.get(y * self.stride + self.x..).unwrap_or(&[]);
-        row.get(..self.n).unwrap_or(row)
-    }
+/// The row pairs of a source square: each row with the one below.
+#[inline(always)]
+fn row_pairs<P>(px: &[P], stride: usize) -> impl Iterator<Item = (&[P], &[P])> {
+    let below = px.get(stride..).unwrap_or(&[]);
+    px.chunks(stride.max(1)).zip(below.chunks(stride.max(1)))
 }
 
 /// A pixel of a [`Source`].
@@ -149,49 +166,27 @@ trait Pixel: Copy + Into<i32> {}
 impl Pixel for u8 {}
 impl Pixel for i16 {}
 
-/// Row `r` of a buffer of `pitch`-value rows, `len` values long (empty past the end).
-#[inline(always)]
-fn row<T>(buf: &[T], r: usize, pitch: usize, len: usize) -> &[T] {
-    buf.get(r * pitch..r * pitch + len).unwrap_or(&[])
-}
-
-/// [`row`] for writing.
-#[inline(always)]
-fn row_mut<T>(buf: &mut [T], r: usize, pitch: usize, len: usize) -> &mut [T] {
-    buf.get_mut(r * pitch..r * pitch + len).unwrap_or(&mut [])
-}
-
 /// Samples the template patch into `patch`, and its interior, the template's intensities, into
 /// `intensity` as well: storing each interior sample twice costs less than copying afterwards.
 #[inline(always)]
 fn sample_patch<P: Pixel>(
     w: &[i32; 4],
-    source: &SourceRows<'_, P>,
+    px: &[P],
+    stride: usize,
     layout: &Layout,
     patch: &mut [i16],
     intensity: &mut [i16],
 ) {
     let (win, pp) = (layout.win, layout.patch_pitch);
-    let mut top = source.row(0);
-    let mut inner = intensity.chunks_exact_mut(win);
-    for (r, out) in patch.chunks_exact_mut(pp).enumerate() {
-        let bottom = source.row(r + 1);
+    let rows = row_pairs(px, stride).zip(patch.chunks_exact_mut(pp));
+    let mut inner = intensity
+        .chunks_exact_mut(layout.pitch)
+        .map(|row| row.get_mut(..win).unwrap_or(&mut []));
+    for (r, ((top, bottom), out)) in rows.enumerate() {
         match if r == 0 { None } else { inner.next() } {
             Some(inner) => interpolate_twice(w, top, bottom, out, inner),
             None => interpolate(w, top, bottom, out),
         }
-        top = bottom;
-    }
-}
-
-/// Samples the `side` x `side` window into `out`, row by row.
-#[inline(always)]
-fn sample<P: Pixel>(w: &[i32; 4], source: &SourceRows<'_, P>, side: usize, out: &mut [i16]) {
-    let mut top = source.row(0);
-    for (r, out) in out.chunks_exact_mut(side).enumerate() {
-        let bottom = source.row(r + 1);
-        interpolate(w, top, bottom, out);
-        top = bottom;
     }
 }
 
@@ -252,46 +247,93 @@ fn interpolate_twice<P: Pixel>(
     }
 }
 
-/// The match sums in one pass over the window (`ΣJ` and `ΣJI` only with `GAIN_BIAS`), exact
-/// in 32 bits over chunks of [`MAX_ROW`] values.
+/// The correlations of the next window's gathered source block with the template.
+///
+/// Neighbour `q`'s pixels under the window are the run of the block starting at
+/// `[0, 1, pitch, pitch + 1][q]`; the template's zero padding column drops the extra column of
+/// each run from the products.
 #[inline(never)]
-fn match_sums<const GAIN_BIAS: bool>(j: &[i16], t: &TemplateBuffers<'_>) -> MatchSums {
-    let mut m = MatchSums::default();
-    let chunks = j
-        .chunks(MAX_ROW)
-        .zip(t.intensity.chunks(MAX_ROW))
-        .zip(t.dx.chunks(MAX_ROW).zip(t.dy.chunks(MAX_ROW)));
-    for ((j, i), (gx, gy)) in chunks {
-        let (mut sj, mut sji, mut sjx, mut sjy) = (0i32, 0u32, 0i32, 0i32);
-        for ((&j, &i), (&gx, &gy)) in j.iter().zip(i).zip(gx.iter().zip(gy)) {
-            let j = i32::from(j);
-            sjx += j * i32::from(gx);
-            sjy += j * i32::from(gy);
-            if GAIN_BIAS {
-                sj += j;
-                sji = sji.wrapping_add((j * i32::from(i)) as u32);
-            }
-        }
-        m.sj += i64::from(sj);
-        m.sji += i64::from(sji);
-        m.sjx += i64::from(sjx);
-        m.sjy += i64::from(sjy);
+fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correlations {
+    let (p, n) = (layout.pitch, layout.window_len());
+    let mut c = Correlations {
+        sums: pixel_sums(block, layout).map(|plain| [plain, 0, 0, 0]),
+    };
+    for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
+        let run = block.get(offset..offset + n).unwrap_or(&[]);
+        sums[1] = dot(run, t.intensity);
+        sums[2] = dot(run, t.dx);
+        sums[3] = dot(run, t.dy);
     }
-    m
+    c
+}
+
+/// `ΣP` of each neighbour over the window, from the block's total, its first and last rows and
+/// columns: the samples' own pixels are the block without its last row and column, their right
+/// neighbours the block without its last row and first column, and so on. At most
+/// `64^2 * 255 < 2^31`.
+fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
+    let (p, win) = (layout.pitch, layout.win);
+    let square = block.get(..p * p).unwrap_or(&[]);
+    let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
+    let total: i32 = square.iter().map(|&v| i32::from(v)).sum();
+    let (mut left, mut right) = (0, 0);
+    for row in square.chunks_exact(p) {
+        left += row.first().map_or(0, |&v| i32::from(v));
+        right += row.last().map_or(0, |&v| i32::from(v));
+    }
+    let row_sum = |r: usize| -> i32 { (0..p).map(|c| at(r * p + c)).sum() };
+    let (top, bottom) = (row_sum(0), row_sum(win));
+    let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
+    [
+        without(bottom, right, win * p + win),
+        without(bottom, left, win * p),
+        without(top, right, win),
+        without(top, left, 0),
+    ]
+    .map(i64::from)
+}
+
+/// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31`
+/// (widths in `correlation.rs`).
+const CORRELATION_CHUNK: usize = 1024;
+
+/// `Σ a[k] b[k]`, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
+fn dot(a: &[i16], b: &[i16]) -> i64 {
+    if a.len() <= CORRELATION_CHUNK {
+        return i64::from(dot_chunk(a, b));
+    }
+    let chunks = a.chunks(CORRELATION_CHUNK).zip(b.chunks(CORRELATION_CHUNK));
+    chunks.map(|(a, b)| i64::from(dot_chunk(a, b))).sum()
+}
+
+/// `Σ a[k] b[k]` of at most [`CORRELATION_CHUNK`] pixel-template products, in pairs so that
+/// LLVM forms `SMLAD` on a Cortex-M4.
+#[inline(always)]
+fn dot_chunk(a: &[i16], b: &[i16]) -> i32 {
+    let (pairs_a, pairs_b) = (a.chunks_exact(2), b.chunks_exact(2));
+    let mut sum = match (pairs_a.remainder(), pairs_b.remainder()) {
+        (&[x], &[y]) => i32::from(x) * i32::from(y),
+        _ => 0,
+    };
+    for (x, y) in pairs_a.zip(pairs_b) {
+        if let (&[x0, x1], &[y0, y1]) = (x, y) {
+            sum += i32::from(x0) * i32::from(y0) + i32::from(x1) * i32::from(y1);
+        }
+    }
+    sum
 }
 
 /// The Scharr derivatives of the template inside its patch.
 fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
-    let (win, pp) = (layout.win, layout.patch_pitch);
-    for r in 0..win {
-        let [up, mid, down] = [r, r + 1, r + 2].map(|k| row(patch, k, pp, pp));
-        scharr_row(
-            up,
-            mid,
-            down,
-            row_mut(dx, r, win, win),
-            row_mut(dy, r, win, win),
-        );
+    let (win, p) = (layout.win, layout.pitch);
+    let patch_rows = patch.chunks_exact(layout.patch_pitch);
+    let below = patch_rows.clone().skip(1).zip(patch_rows.clone().skip(2));
+    let outputs = dx.chunks_exact_mut(p).zip(dy.chunks_exact_mut(p));
+    for ((dx_row, dy_row), (up, (mid, down))) in outputs.zip(patch_rows.zip(below)) {
+        let (Some(dx_row), Some(dy_row)) = (dx_row.get_mut(..win), dy_row.get_mut(..win)) else {
+            continue;
+        };
+        scharr_row(up, mid, down, dx_row, dy_row);
     }
 }
 

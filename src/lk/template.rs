@@ -26,6 +26,7 @@
 
 use core::marker::PhantomData;
 
+use super::correlation::Correlations;
 use super::wide::{round_shift, to_i32, Fractions, Reciprocal};
 use super::window::{Layout, Loops, TemplateBuffers, WindowOrigin, INTENSITY_BITS};
 use super::Illumination;
@@ -156,23 +157,20 @@ impl<'s, L: Loops> Template<'s, L> {
         })
     }
 
-    /// One LK step for the next frame's window at `origin`; `scratch` is the source and window
-    /// scratch of the window loops.
-    pub(crate) fn step(
-        &self,
-        frame: &ImageView<'_>,
-        origin: &WindowOrigin,
-        scratch: (&mut [i16], &mut [i16]),
-    ) -> Step {
-        let gain_bias = self.illumination == Illumination::GainBias;
-        let m = L::match_window(
-            frame,
-            origin,
-            &self.layout,
-            scratch,
-            &self.buffers,
-            gain_bias,
-        );
+    /// The layout of the template's buffers.
+    pub(crate) fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The template's buffers.
+    pub(crate) fn buffers(&self) -> &TemplateBuffers<'s> {
+        &self.buffers
+    }
+
+    /// One LK step for the next frame's window with the correlations `c` of its integer
+    /// position and the bilinear weights `w` of its sub-pixel offset.
+    pub(crate) fn step(&self, c: &Correlations, w: [i16; 4]) -> Step {
+        let m = c.match_sums(w);
         let (bx, by) = self.mismatch(&m);
         // delta = -G^-1 b, with G^-1 = adj(G) / det(G); b scaled to i32 so that each product
         // with a coefficient (< 2^30) stays below 2^60.
@@ -228,23 +226,17 @@ impl<'s, L: Loops> Template<'s, L> {
     }
 
     /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
-    /// bits), after the gain and bias correction in gain-bias mode.
+    /// bits), after the gain and bias correction in gain-bias mode; `c` are the window's
+    /// correlations and `(source, j)` scratch.
     pub(crate) fn residual(
         &self,
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
+        c: &Correlations,
         (source, j): (&mut [i16], &mut [i16]),
     ) -> i32 {
-        let gain_bias = self.illumination == Illumination::GainBias;
-        let scratch = (&mut *source, &mut *j);
-        let m = L::match_window(
-            frame,
-            origin,
-            &self.layout,
-            scratch,
-            &self.buffers,
-            gain_bias,
-        );
+        let m = c.match_sums(origin.w);
+        L::sample_window(frame, origin, &self.layout, source, j);
         let gain = self.gain(&m);
         let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
@@ -255,9 +247,11 @@ impl<'s, L: Loops> Template<'s, L> {
         let mut total: i64 = 0;
         let rows = self.layout.rows(self.buffers.intensity);
         let rows = rows.zip(self.layout.rows(j));
+        // The gain is at most 2^18 and I at most 8160: a I < 2^31 is exact in 32 bits.
+        let gain = gain as i32;
         for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
-                let r = (i64::from(jv) << 16) - gain * i64::from(i) - bias;
+                let r = (i64::from(jv) << 16) - i64::from(gain * i32::from(i)) - bias;
                 total += r.abs();
             }
         }
@@ -270,6 +264,12 @@ impl<'s, L: Loops> Template<'s, L> {
 /// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and
 /// `(gxx - tau)(gyy - tau) >= gxy²`.
 fn min_eigenvalue_at_least(s: &TemplateSums, tau: u64) -> bool {
+    let small = |v: i64| v.unsigned_abs() < 1 << 31;
+    if small(s.gxx) && small(s.gxy) && small(s.gyy) && tau < 1 << 31 {
+        // Every product below 2^62: the same test in 64 bits.
+        let (a, b, c, tau) = (s.gxx, s.gxy, s.gyy, tau as i64);
+        return a >= tau && c >= tau && (a - tau) * (c - tau) >= b * b && a * c - b * b > 0;
+    }
     let tau = tau as i128;
     let (a, b, c) = (s.gxx as i128, s.gxy as i128, s.gyy as i128);
     let det = a * c - b * b;
@@ -288,20 +288,21 @@ mod tests {
             (50, -20, 400),
             (1000, 10, 10),
         ];
-        for (a, b, c) in cases {
+        // At 2^26 the sums take the 128-bit path, at 1 the 64-bit one.
+        for ((a, b, c), scale) in cases.into_iter().flat_map(|g| [(g, 1), (g, 1 << 26)]) {
             let s = TemplateSums {
-                gxx: a,
-                gxy: b,
-                gyy: c,
+                gxx: a * scale,
+                gxy: b * scale,
+                gyy: c * scale,
                 ..Default::default()
             };
             let (a, b, c) = (a as f64, b as f64, c as f64);
             let lambda = (a + c - ((a - c) * (a - c) + 4.0 * b * b).sqrt()) / 2.0;
             for tau in [0u64, 1, 5, 9, 10, 11, 30, 49, 50, 51, 99, 100, 101] {
                 assert_eq!(
-                    min_eigenvalue_at_least(&s, tau),
+                    min_eigenvalue_at_least(&s, tau * scale as u64),
                     lambda >= tau as f64 && a * c - b * b > 0.0,
-                    "G = [{a} {b}; {b} {c}], tau {tau}"
+                    "G = [{a} {b}; {b} {c}] * {scale}, tau {tau}"
                 );
             }
         }

@@ -15,7 +15,8 @@
 //! [`super::flat`] is shaped for SIMD units (padded rows, flat loops), [`super::rows`] for scalar
 //! cores such as the Cortex-M4 (packed rows, pixels read straight from the frame).
 
-use super::template::{MatchSums, TemplateSums};
+use super::correlation::Correlations;
+use super::template::TemplateSums;
 use crate::frame::ImageView;
 
 /// Fractional bits of the bilinear weights.
@@ -75,17 +76,25 @@ pub(crate) trait Loops {
         out: TemplateOut<'_>,
     ) -> TemplateSums;
 
-    /// Samples the next window, the `win` square at `origin`, into `j` (padding zero) and
-    /// returns its window sums against the template; `ΣJ` and `ΣJI` only when `gain_bias`.
-    /// `scratch` is the source buffer and `j`.
-    fn match_window(
+    /// The [`Correlations`] of the source pixels under the `win` square at `origin` (its integer
+    /// position only) with the template. `source` is scratch of `layout.source_len` values.
+    fn correlate(
         frame: &ImageView<'_>,
         origin: &WindowOrigin,
         layout: &Layout,
-        scratch: (&mut [i16], &mut [i16]),
+        source: &mut [i16],
         t: &TemplateBuffers<'_>,
-        gain_bias: bool,
-    ) -> MatchSums;
+    ) -> Correlations;
+
+    /// Samples the next window, the `win` square at `origin`, into the window buffer `j`
+    /// (padding zero). `source` is scratch of `layout.source_len` values.
+    fn sample_window(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        source: &mut [i16],
+        j: &mut [i16],
+    );
 }
 
 /// The buffers a template is derived into, laid out like [`TemplateBuffers`].
@@ -179,6 +188,16 @@ pub(crate) fn gather(
     cols: usize,
     out: &mut [i16],
 ) {
+    if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
+        // Inside the frame: a plain copy, row by row.
+        let src_rows = block.chunks(frame.stride());
+        for (dst, src) in out.chunks_exact_mut(cols).zip(src_rows) {
+            dst.iter_mut()
+                .zip(src)
+                .for_each(|(d, &s)| *d = i16::from(s));
+        }
+        return;
+    }
     let (width, height) = (frame.width() as isize, frame.height() as isize);
     // The part of each row that lies in the frame, as offsets into the row.
     let start = (-origin.x).clamp(0, cols as isize) as usize;
@@ -217,29 +236,27 @@ pub(crate) fn mask_outside(
     dx: &mut [i16],
     dy: &mut [i16],
 ) {
-    // The template starts one pixel inside the patch.
-    let (x0, y0) = (origin.x + 1, origin.y + 1);
-    // A sample between pixels needs its right and lower neighbours too.
+    // The template starts one pixel inside the patch; a sample between pixels needs its right
+    // and lower neighbours too.
     let reach_x = isize::from(origin.w[1] != 0 || origin.w[3] != 0);
     let reach_y = isize::from(origin.w[2] != 0 || origin.w[3] != 0);
-    let inside_x = |c: usize| {
-        let x = x0 + c as isize;
-        x >= 0 && x + reach_x < frame.width() as isize
+    // Template columns and rows `first..end` lie in the frame.
+    let inside = |start: isize, reach: isize, size: usize, count: usize| {
+        let first = (-start).clamp(0, count as isize);
+        let end = (size as isize - reach - start).clamp(first, count as isize);
+        (first as usize, end as usize)
     };
-    let inside_y = |r: usize| {
-        let y = y0 + r as isize;
-        y >= 0 && y + reach_y < frame.height() as isize
-    };
-    let rows = dx
-        .chunks_exact_mut(layout.pitch)
-        .zip(dy.chunks_exact_mut(layout.pitch));
-    for (r, (dx_row, dy_row)) in rows.enumerate() {
-        let row_inside = inside_y(r);
-        for (c, (gx, gy)) in dx_row.iter_mut().zip(dy_row.iter_mut()).enumerate() {
-            if !row_inside || !inside_x(c) {
-                *gx = 0;
-                *gy = 0;
-            }
+    let (first_col, end_col) = inside(origin.x + 1, reach_x, frame.width(), layout.pitch);
+    let (first_row, end_row) = inside(origin.y + 1, reach_y, frame.height(), layout.win);
+    for buf in [dx, dy] {
+        for (r, row) in buf.chunks_exact_mut(layout.pitch).enumerate() {
+            let (left, right) = match r {
+                _ if r < first_row || r >= end_row => (row.len(), row.len()),
+                _ => (first_col, end_col),
+            };
+            let (outside_left, rest) = row.split_at_mut(left.min(row.len()));
+            outside_left.fill(0);
+            rest.iter_mut().skip(right - left).for_each(|v| *v = 0);
         }
     }
 }
@@ -277,34 +294,30 @@ mod tests {
         out
     }
 
-    /// A flat, textured template for sampling windows against.
-    const PLAIN: [i16; 4096] = [100; 4096];
-
     /// Samples a `side` x `side` window centred at `(cx, cy)` (Q16 bits), padding dropped.
     fn window<L: Loops>(frame: &ImageView<'_>, cx: i32, cy: i32, side: usize) -> [i16; 63 * 63] {
         let layout = L::layout(side);
         let mut source = [0i16; 4096];
         let mut out = [0i16; 4096];
         let origin = WindowOrigin::new(cx, cy, side / 2);
-        let n = layout.window_len();
-        let t = TemplateBuffers {
-            intensity: &PLAIN[..n],
-            dx: &PLAIN[..n],
-            dy: &PLAIN[..n],
-        };
-        let scratch = (&mut source[..], &mut out[..n]);
-        L::match_window(frame, &origin, &layout, scratch, &t, true);
+        L::sample_window(
+            frame,
+            &origin,
+            &layout,
+            &mut source,
+            &mut out[..layout.window_len()],
+        );
         packed(&layout, &out)
     }
 
     /// Everything a template computes at a centre: intensity, gradients and sums, unpadded, and
-    /// the sums and samples of a window half a pixel off matched against it.
+    /// the correlations and samples of a window half a pixel off.
     struct TemplateParts {
         intensity: [i16; 63 * 63],
         dx: [i16; 63 * 63],
         dy: [i16; 63 * 63],
         sums: TemplateSums,
-        matched: [MatchSums; 2],
+        correlations: Correlations,
         next: [i16; 63 * 63],
     }
 
@@ -327,16 +340,14 @@ mod tests {
             dy: &dy[..n],
         };
         let next = WindowOrigin::new(c.0 + 32768, c.1 - 16384, win / 2);
-        let matched = [false, true].map(|gain_bias| {
-            let scratch = (&mut source[..], &mut j[..n]);
-            L::match_window(frame, &next, &layout, scratch, &t, gain_bias)
-        });
+        let correlations = L::correlate(frame, &next, &layout, &mut source, &t);
+        L::sample_window(frame, &next, &layout, &mut source, &mut j[..n]);
         TemplateParts {
             intensity: packed(&layout, t.intensity),
             dx: packed(&layout, t.dx),
             dy: packed(&layout, t.dy),
             sums,
-            matched,
+            correlations,
             next: packed(&layout, &j[..n]),
         }
     }
@@ -404,6 +415,42 @@ mod tests {
         }
     }
 
+    /// The mask zeroes exactly the gradients of template pixels whose sample, with the
+    /// neighbours it reads, is not wholly in the frame.
+    #[test]
+    fn mask_zeroes_the_pixels_outside() {
+        let px = [0u8; 30 * 20];
+        let frame = ImageView::packed(&px, 30, 20).unwrap();
+        for layout in [Flat::layout(5), Rows::layout(5), Rows::layout(9)] {
+            let win = layout.win;
+            for (cx, cy) in [
+                (0, 0),
+                (29, 19),
+                (2, 10),
+                (27, 18),
+                (-3, 5),
+                (15, 23),
+                (15, 10),
+            ] {
+                for frac in [0, 0x8000, 0x4000] {
+                    let origin =
+                        WindowOrigin::new((cx << 16) + frac, (cy << 16) + frac / 2, win / 2 + 1);
+                    let n = layout.window_len();
+                    let (mut dx, mut dy) = ([1i16; 256], [1i16; 256]);
+                    mask_outside(&frame, &origin, &layout, &mut dx[..n], &mut dy[..n]);
+                    for k in 0..n {
+                        let (r, c) = ((k / layout.pitch) as isize, (k % layout.pitch) as isize);
+                        let (x, y) = (origin.x + 1 + c, origin.y + 1 + r);
+                        let reach_x = isize::from(origin.w[1] != 0 || origin.w[3] != 0);
+                        let reach_y = isize::from(origin.w[2] != 0 || origin.w[3] != 0);
+                        let inside = x >= 0 && x + reach_x < 30 && y >= 0 && y + reach_y < 20;
+                        assert_eq!((dx[k], dy[k]), if inside { (1, 1) } else { (0, 0) }, "{k}");
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn flat_padding_is_zero() {
         let px = noise::<{ 40 * 30 }>(3);
@@ -412,13 +459,7 @@ mod tests {
         let (mut source, mut out) = ([0i16; 256], [-1i16; 256]);
         let origin = WindowOrigin::new(20 << 16, 15 << 16, 2);
         let n = layout.window_len();
-        let t = TemplateBuffers {
-            intensity: &PLAIN[..n],
-            dx: &PLAIN[..n],
-            dy: &PLAIN[..n],
-        };
-        let scratch = (&mut source[..], &mut out[..n]);
-        Flat::match_window(&frame, &origin, &layout, scratch, &t, true);
+        Flat::sample_window(&frame, &origin, &layout, &mut source, &mut out[..n]);
         for row in out[..n].chunks_exact(layout.pitch) {
             assert_eq!(row[5..], [0, 0, 0]);
         }
@@ -450,7 +491,7 @@ mod tests {
                         assert_eq!(f.dx, r.dx, "{at:?}");
                         assert_eq!(f.dy, r.dy, "{at:?}");
                         assert_eq!(f.sums, r.sums, "{at:?}");
-                        assert_eq!(f.matched, r.matched, "{at:?}");
+                        assert_eq!(f.correlations, r.correlations, "{at:?}");
                         assert_eq!(f.next, r.next, "{at:?}");
                     }
                 }

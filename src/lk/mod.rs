@@ -619,6 +619,17 @@ mod tests {
         assert!(tracked > 1000, "only {tracked} tracked");
     }
 
+    /// `scratch_len` covers the buffers of both sets of window loops for every window.
+    #[test]
+    fn scratch_len_fits_both_layouts() {
+        for win in (3..=MAX_WINDOW).step_by(2) {
+            for layout in [flat::Flat::layout(win), rows::Rows::layout(win)] {
+                let needed = layout.source_len + layout.patch_len + 4 * layout.window_len();
+                assert!(needed <= scratch_len(win), "window {win}: {layout:?}");
+            }
+        }
+    }
+
     /// Full-contrast checks, the largest sums the window loops can meet, in the largest
     /// windows: both sets of loops give the same tracks (and neither overflows, which tests
     /// built with overflow checks would report).

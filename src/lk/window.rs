@@ -12,8 +12,9 @@
 //! that a full derivative image would cost in RAM.
 //!
 //! Two implementations of the loops compute the same values bit for bit ([`Loops`]):
-//! [`super::flat`] is shaped for SIMD units (padded rows, flat loops), [`super::rows`] for scalar
-//! cores such as the Cortex-M4 (packed rows, pixels read straight from the frame).
+//! [`super::flat`] is shaped for SIMD units (rows padded to vector widths, flat loops),
+//! [`super::rows`] for scalar cores such as the Cortex-M4 (one padding column, short row loops,
+//! dot products the DSP extension runs two products at a time).
 
 use super::correlation::Correlations;
 use super::template::TemplateSums;

@@ -253,6 +253,7 @@ pub(crate) fn mask_outside(
         for (r, row) in buf.chunks_exact_mut(layout.pitch).enumerate() {
             let (left, right) = match r {
                 _ if r < first_row || r >= end_row => (row.len(), row.len()),
+                _ if first_col == 0 && end_col >= row.len() => continue,
                 _ => (first_col, end_col),
             };
             let (outside_left, rest) = row.split_at_mut(left.min(row.len()));

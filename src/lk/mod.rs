@@ -618,4 +618,54 @@ mod tests {
         }
         assert!(tracked > 1000, "only {tracked} tracked");
     }
+
+    /// `scratch_len` covers the buffers of both sets of window loops for every window.
+    #[test]
+    fn scratch_len_fits_both_layouts() {
+        for win in (3..=MAX_WINDOW).step_by(2) {
+            for layout in [flat::Flat::layout(win), rows::Rows::layout(win)] {
+                let needed = layout.source_len + layout.patch_len + 4 * layout.window_len();
+                assert!(needed <= scratch_len(win), "window {win}: {layout:?}");
+            }
+        }
+    }
+
+    /// Full-contrast checks, the largest sums the window loops can meet, in the largest
+    /// windows: both sets of loops give the same tracks (and neither overflows, which tests
+    /// built with overflow checks would report).
+    #[test]
+    fn flat_and_row_loops_agree_at_full_contrast_in_large_windows() {
+        const SIDE: usize = 160;
+        let stripes = |shift: usize| -> [u8; SIDE * SIDE] {
+            core::array::from_fn(|i| {
+                let (x, y) = (i % SIDE + shift, i / SIDE);
+                if (x / 2 + y / 2) % 2 == 0 {
+                    255
+                } else {
+                    0
+                }
+            })
+        };
+        let (a, b) = (stripes(0), stripes(1));
+        let frame = |px| ImageView::packed(px, SIDE, SIDE).unwrap();
+        let prev = Pyramid::build(frame(&a), 0, &mut []).unwrap();
+        let next = Pyramid::build(frame(&b), 0, &mut []).unwrap();
+        let mut scratch = [0i16; scratch_len(MAX_WINDOW)];
+        for window in [31, MAX_WINDOW] {
+            for illumination in [Illumination::GainBias, Illumination::Plain] {
+                let lk = LucasKanade::new(LkParams {
+                    window,
+                    max_level: 0,
+                    illumination,
+                    ..LkParams::default()
+                })
+                .unwrap();
+                let p = Point::from_f32(80.0, 80.0);
+                let flat = lk.track::<flat::Flat>(&prev, &next, p, None, &mut scratch);
+                let rows = lk.track::<rows::Rows>(&prev, &next, p, None, &mut scratch);
+                assert_eq!(flat, rows, "window {window}");
+                assert!(flat.is_tracked(), "{flat:?}");
+            }
+        }
+    }
 }

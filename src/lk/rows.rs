@@ -354,38 +354,36 @@ fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i
     }
 }
 
-/// The template's window sums, in two passes of few accumulators each.
+/// The template's window sums in one pass.
 #[inline(never)]
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
     let mut s = TemplateSums::default();
-    for (gx, gy) in dx.chunks(MAX_ROW).zip(dy.chunks(MAX_ROW)) {
-        let (mut gxx, mut gxy, mut gyy, mut sx, mut sy) = (0i32, 0i32, 0i32, 0i32, 0i32);
-        for (&gx, &gy) in gx.iter().zip(gy) {
-            let (gx, gy) = (i32::from(gx), i32::from(gy));
+    let chunks = intensity
+        .chunks(MAX_ROW)
+        .zip(dx.chunks(MAX_ROW).zip(dy.chunks(MAX_ROW)));
+    for (i_chunk, (x_chunk, y_chunk)) in chunks {
+        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
+        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
+            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
+        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
+            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
             gxx += gx * gx;
             gxy += gx * gy;
             gyy += gy * gy;
+            si += i;
+            sii = sii.wrapping_add((i * i) as u32);
             sx += gx;
             sy += gy;
+            six += i * gx;
+            siy += i * gy;
         }
         s.gxx += i64::from(gxx);
         s.gxy += i64::from(gxy);
         s.gyy += i64::from(gyy);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-    }
-    let chunks = intensity.chunks(MAX_ROW);
-    for (i, (gx, gy)) in chunks.zip(dx.chunks(MAX_ROW).zip(dy.chunks(MAX_ROW))) {
-        let (mut si, mut sii, mut six, mut siy) = (0i32, 0u32, 0i32, 0i32);
-        for (&i, (&gx, &gy)) in i.iter().zip(gx.iter().zip(gy)) {
-            let i = i32::from(i);
-            si += i;
-            sii = sii.wrapping_add((i * i) as u32);
-            six += i * i32::from(gx);
-            siy += i * i32::from(gy);
-        }
         s.si += i64::from(si);
         s.sii += i64::from(sii);
+        s.sx += i64::from(sx);
+        s.sy += i64::from(sy);
         s.six += i64::from(six);
         s.siy += i64::from(siy);
     }

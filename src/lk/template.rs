@@ -247,12 +247,14 @@ impl<'s, L: Loops> Template<'s, L> {
         let mut total: i64 = 0;
         let rows = self.layout.rows(self.buffers.intensity);
         let rows = rows.zip(self.layout.rows(j));
-        // The gain is at most 2^18 and I at most 8160: a I < 2^31 is exact in 32 bits.
+        // The gain is at most 2^18 and I at most 8160, J at most 8160: J 2^16 (< 2^29) minus
+        // a I (< 2^31) is exact in 32 bits; the bias, an average of such values, is not
+        // subtracted until 64 bits.
         let gain = gain as i32;
         for (i_row, j_row) in rows.take(self.layout.win) {
             for (&i, &jv) in i_row.iter().zip(j_row) {
-                let r = (i64::from(jv) << 16) - i64::from(gain * i32::from(i)) - bias;
-                total += r.abs();
+                let corrected = (i32::from(jv) << 16) - gain * i32::from(i);
+                total += (i64::from(corrected) - bias).abs();
             }
         }
         // Drop the 5 intensity bits: grey levels, Q16.

@@ -12,8 +12,9 @@
 //! that a full derivative image would cost in RAM.
 //!
 //! Two implementations of the loops compute the same values bit for bit ([`Loops`]):
-//! [`super::flat`] is shaped for SIMD units (padded rows, flat loops), [`super::rows`] for scalar
-//! cores such as the Cortex-M4 (packed rows, pixels read straight from the frame).
+//! [`super::flat`] is shaped for SIMD units (rows padded to vector widths, flat loops),
+//! [`super::rows`] for scalar cores such as the Cortex-M4 (one padding column, short row loops,
+//! dot products the DSP extension runs two products at a time).
 
 use super::correlation::Correlations;
 use super::template::TemplateSums;
@@ -252,6 +253,7 @@ pub(crate) fn mask_outside(
         for (r, row) in buf.chunks_exact_mut(layout.pitch).enumerate() {
             let (left, right) = match r {
                 _ if r < first_row || r >= end_row => (row.len(), row.len()),
+                _ if first_col == 0 && end_col >= row.len() => continue,
                 _ => (first_col, end_col),
             };
             let (outside_left, rest) = row.split_at_mut(left.min(row.len()));

@@ -5,6 +5,8 @@
 //! plane (`H = K Rᵀ (I - t nᵀ / d) K⁻¹`) for the homography tests, and explicit body-frame
 //! geometry for the gyro tests.
 
+use host_sim::synth::rotation::{apply, mul, rotation, transpose, Mat3};
+use host_sim::synth::SplitMix64;
 use kestrel::ego::{
     Camera, CameraError, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography,
     ModelKind, OpticalFlowRad, Ransac, RansacParams, Rotation,
@@ -12,63 +14,6 @@ use kestrel::ego::{
 use kestrel::Point;
 
 type Track = ((f32, f32), (f32, f32));
-type Mat3 = [[f64; 3]; 3];
-
-/// SplitMix64, for test data only.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn gaussian(&mut self, sigma: f64) -> f64 {
-        let u1 = self.uniform(f64::MIN_POSITIVE, 1.0);
-        let u2 = self.uniform(0.0, 1.0);
-        sigma * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
-fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-fn transpose(a: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| a[j][i]))
-}
-
-/// `exp([w]x)`, right-handed.
-fn rotation(w: [f64; 3]) -> Mat3 {
-    let angle = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    if angle == 0.0 {
-        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    }
-    let k = w.map(|v| v / angle);
-    let (s, c) = angle.sin_cos();
-    let cross = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            let identity = if i == j { 1.0 } else { 0.0 };
-            c * identity + s * cross[i][j] + (1.0 - c) * k[i] * k[j]
-        })
-    })
-}
-
-fn apply(h: &Mat3, (x, y): (f64, f64)) -> (f64, f64) {
-    let w = h[2][0] * x + h[2][1] * y + h[2][2];
-    (
-        (h[0][0] * x + h[0][1] * y + h[0][2]) / w,
-        (h[1][0] * x + h[1][1] * y + h[1][2]) / w,
-    )
-}
 
 /// A 60-degree horizontal field of view, principal point at the image centre.
 fn focal(width: u16) -> f64 {
@@ -87,7 +32,7 @@ const PATHS: [Path; 4] = [Path::Pan, Path::Yaw, Path::Climb, Path::Perspective];
 
 /// The exact homography of one frame pair on `path`: a camera at unit distance from the
 /// ground plane, turning by `R` and moving by `t` (previous camera frame).
-fn camera_motion(path: Path, width: u16, height: u16, rng: &mut Rng) -> Mat3 {
+fn camera_motion(path: Path, width: u16, height: u16, rng: &mut SplitMix64) -> Mat3 {
     let f = focal(width);
     let (cx, cy) = (
         (f64::from(width) - 1.0) / 2.0,
@@ -135,7 +80,7 @@ fn make_tracks(
     count: usize,
     outliers: usize,
     sigma: f64,
-    rng: &mut Rng,
+    rng: &mut SplitMix64,
 ) -> Vec<Track> {
     let objects: [(f64, f64); 2] = std::array::from_fn(|_| {
         let (angle, length) = (rng.uniform(0.0, 6.3), rng.uniform(3.0, 10.0));
@@ -157,7 +102,7 @@ fn make_tracks(
             };
             (q.0 + d.0, q.1 + d.1)
         } else {
-            (q.0 + rng.gaussian(sigma), q.1 + rng.gaussian(sigma))
+            (q.0 + sigma * rng.gaussian(), q.1 + sigma * rng.gaussian())
         };
         tracks.push(((p.0 as f32, p.1 as f32), (q.0 as f32, q.1 as f32)));
     }
@@ -206,7 +151,7 @@ fn homography_moves_the_corners_within_budget() {
             let mut mean_errors = Vec::new();
             let mut max_errors = Vec::new();
             for seed in 0..25u64 {
-                let mut rng = Rng(seed * 7919 + 1);
+                let mut rng = SplitMix64::new(seed * 7919 + 1);
                 let truth = camera_motion(path, size.0, size.1, &mut rng);
                 // 20-30% outliers, inlier noise 0.1-0.3 px.
                 let share = [0.2, 0.25, 0.3][seed as usize % 3];
@@ -236,7 +181,7 @@ fn homography_moves_the_corners_within_budget() {
 }
 
 /// Tracks following `truth` exactly, the first quarter of them moving on their own.
-fn exact_tracks(truth: &Mat3, size: (u16, u16), rng: &mut Rng) -> Vec<Track> {
+fn exact_tracks(truth: &Mat3, size: (u16, u16), rng: &mut SplitMix64) -> Vec<Track> {
     make_tracks(truth, size, 80, 20, 0.0, rng)
 }
 
@@ -265,12 +210,12 @@ fn every_model_recovers_its_own_motion() {
             [[1.03, 0.04, -2.0], [-0.02, 0.98, 1.5], [0.0, 0.0, 1.0]],
         ),
         (ModelKind::Homography, {
-            let mut rng = Rng(99);
+            let mut rng = SplitMix64::new(99);
             camera_motion(Path::Perspective, size.0, size.1, &mut rng)
         }),
     ];
     for (kind, truth) in motions {
-        let mut rng = Rng(5);
+        let mut rng = SplitMix64::new(5);
         let tracks = exact_tracks(&truth, size, &mut rng);
         let params = RansacParams {
             model: kind,
@@ -294,7 +239,7 @@ fn every_model_recovers_its_own_motion() {
 #[test]
 fn the_same_tracks_give_the_same_motion_bit_for_bit() {
     let size = (160u16, 120u16);
-    let mut rng = Rng(2024);
+    let mut rng = SplitMix64::new(2024);
     let truth = camera_motion(Path::Perspective, size.0, size.1, &mut rng);
     let tracks = make_tracks(&truth, size, 120, 30, 0.25, &mut rng);
     let bits = |m: &EgoMotion| {
@@ -338,7 +283,7 @@ fn the_same_tracks_give_the_same_motion_bit_for_bit() {
 #[test]
 fn iterations_are_bounded_and_stop_early_on_clean_data() {
     let size = (160u16, 120u16);
-    let mut rng = Rng(8);
+    let mut rng = SplitMix64::new(8);
     // No structure at all: every sample is tried, none gathers a consensus.
     let noise: Vec<Track> = (0..200)
         .map(|_| {
@@ -430,7 +375,7 @@ fn body_motion(
     camera: &BodyCamera,
     rotation: [f64; 3],
     shift: [f64; 3],
-    rng: &mut Rng,
+    rng: &mut SplitMix64,
 ) -> Vec<Track> {
     let r_t = transpose(&self::rotation(rotation));
     let mut tracks = Vec::new();
@@ -453,7 +398,7 @@ fn derotation_removes_pure_rotation() {
     for k in [(0.0, 0.0), (-0.15, 0.03)] {
         let body = BodyCamera::new(160, 120, k);
         let camera = Camera::new(body.params()).unwrap();
-        let mut rng = Rng(77);
+        let mut rng = SplitMix64::new(77);
         let mut worst = 0.0f64;
         for _ in 0..20 {
             let rates = [
@@ -498,7 +443,7 @@ fn integrated_flow_equals_integrated_gyro_under_pure_rotation() {
     ];
     for (case, rates) in cases.iter().enumerate() {
         for sigma in [0.0, 0.1] {
-            let mut rng = Rng(case as u64 + 1);
+            let mut rng = SplitMix64::new(case as u64 + 1);
             let mut flow = FlowRadAccumulator::new(camera, 1);
             // Ten frame pairs at 100 Hz, each with 20% outliers.
             for _ in 0..10 {
@@ -509,8 +454,8 @@ fn integrated_flow_equals_integrated_gyro_under_pure_rotation() {
                         t.1 .0 += rng.uniform(-15.0, 15.0) as f32;
                         t.1 .1 += rng.uniform(-15.0, 15.0) as f32;
                     } else {
-                        t.1 .0 += rng.gaussian(sigma) as f32;
-                        t.1 .1 += rng.gaussian(sigma) as f32;
+                        t.1 .0 += (sigma * rng.gaussian()) as f32;
+                        t.1 .1 += (sigma * rng.gaussian()) as f32;
                     }
                 }
                 let mut inliers = vec![false; tracks.len()];
@@ -549,7 +494,7 @@ fn translation_gives_mavlink_flow_signs() {
     let body = BodyCamera::new(160, 120, (0.0, 0.0));
     let camera = Camera::new(body.params()).unwrap();
     let ransac = Ransac::new(RansacParams::default()).unwrap();
-    let mut rng = Rng(3);
+    let mut rng = SplitMix64::new(3);
     let mut reading = |shift: [f64; 3]| {
         let tracks = body_motion(&body, [0.0; 3], shift, &mut rng);
         let mut inliers = vec![false; tracks.len()];
@@ -775,7 +720,7 @@ fn bad_gyro_and_camera_values_are_rejected() {
 
 #[test]
 fn arbitrary_input_never_produces_nan_or_panics() {
-    let mut rng = Rng(31337);
+    let mut rng = SplitMix64::new(31337);
     let camera = Camera::new(CameraParams {
         k1: -0.3,
         k2: 0.1,
@@ -785,7 +730,7 @@ fn arbitrary_input_never_produces_nan_or_panics() {
     let extremes = [0.0, -0.0, 65_536.0, -65_536.0, 1e-30, 3.0, 3.0 + 1e-6];
     for trial in 0..3000 {
         let count = (rng.next_u64() % 40) as usize;
-        let value = |rng: &mut Rng| match rng.next_u64() % 4 {
+        let value = |rng: &mut SplitMix64| match rng.next_u64() % 4 {
             0 => extremes[(rng.next_u64() % extremes.len() as u64) as usize] as f32,
             1 => rng.uniform(-5.0, 5.0).round() as f32,
             _ => rng.uniform(-200.0, 400.0) as f32,

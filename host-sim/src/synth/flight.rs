@@ -16,6 +16,7 @@ use super::glider::Glider;
 use super::homography::Homography;
 use super::render::Lighting;
 use super::rng::SplitMix64;
+use super::rotation::{mul, rotation, transpose, Mat3};
 use super::scene::{Scene, SceneSpec};
 use crate::Frame;
 
@@ -71,8 +72,6 @@ const TREMOR: f64 = 0.01;
 /// texture and noise use others).
 const PATH_STREAM: u64 = 2 << 32;
 const TREMOR_STREAM: u64 = 3 << 32;
-
-type Mat3 = [[f64; 3]; 3];
 
 /// A seeded camera flight for `width` x `height` frames.
 #[derive(Debug, Clone, PartialEq)]
@@ -251,34 +250,6 @@ impl FlightSequence {
             overlay,
         )
     }
-}
-
-fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-fn transpose(a: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| a[j][i]))
-}
-
-/// `exp([w]x)`: the right-handed rotation by `|w|` radians about `w`.
-fn rotation(w: [f64; 3]) -> Mat3 {
-    let angle = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    if angle == 0.0 {
-        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    }
-    let axis = w.map(|v| v / angle);
-    let (s, c) = angle.sin_cos();
-    let cross = [
-        [0.0, -axis[2], axis[1]],
-        [axis[2], 0.0, -axis[0]],
-        [-axis[1], axis[0], 0.0],
-    ];
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            c * f64::from(u8::from(i == j)) + s * cross[i][j] + (1.0 - c) * axis[i] * axis[j]
-        })
-    })
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ pub mod objects;
 mod points;
 mod render;
 mod rng;
+pub mod rotation;
 mod scene;
 mod sequence;
 mod texture;

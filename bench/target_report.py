@@ -136,6 +136,7 @@ def main(argv):
     prime = one(records, "prime")
     per_frame = one(records, "per_frame")
     refills = one(records, "refills")
+    tolerances = one(records, "tolerances")
     one(records, "stack")  # printed last: the firmware reached its end
     stages = {s["name"]: int(s["instructions_per_frame"]) for s in records.get("stage", [])}
     frames = int(per_frame["frames"])
@@ -182,11 +183,13 @@ def main(argv):
     out.append("")
     out.append(f"  {'checks, every frame (worst frame)':<44} {'measured':>12}  must be")
     out.append(row("live tracks", per_frame["tracks_min"],
-                   f">= 70 ({per_frame['tracks']} after the last frame)"))
-    out.append(row("median track displacement error", per_frame["track_error_worst"] + " px", "<= 0.080 px"))
+                   f">= {tolerances['live_tracks']} ({per_frame['tracks']} after the last frame)"))
+    out.append(row("median track displacement error", per_frame["track_error_worst"] + " px",
+                   f"<= {tolerances['track_error']} px"))
     out.append(row("OPTICAL_FLOW_RAD flow error", per_frame["flow_error_worst"] + " rad",
-                   "<= 0.05 px at the principal point (0.000361 rad)"))
-    out.append(row("best motion box IoU with the object", per_frame["box_iou_min"], ">= 0.300"))
+                   f"<= {tolerances['flow_rad']} rad ({tolerances['flow_px']} px at the principal point)"))
+    out.append(row("best motion box IoU with the object", per_frame["box_iou_min"],
+                   f">= {tolerances['box_iou']}"))
     out.append(row("boxes away from the object (all frames)", per_frame["false_boxes"], "0"))
     out.append("")
     out.append(f"  {'memory':<44} {'bytes':>12}")

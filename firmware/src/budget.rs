@@ -57,6 +57,15 @@ pub fn run(pipeline: &mut Pipeline, meter: &Meter) -> bool {
     }
     sum.frames_stack = sum.frames_stack.max(stack::peak());
     sum.print();
+    let focal = pipeline.focal_length();
+    hprintln!(
+        "tolerances track_error={} live_tracks={} flow_px={} flow_rad={} box_iou={}",
+        Milli(checks::TRACK_TOLERANCE),
+        checks::MIN_LIVE_TRACKS,
+        Milli(checks::FLOW_TOLERANCE_PX),
+        Micro(checks::flow_tolerance(focal)),
+        Milli(checks::MIN_BOX_IOU),
+    );
     ok
 }
 

@@ -9,10 +9,11 @@ use crate::checks::{self, Verdict};
 use crate::meter::instructions;
 use crate::meter::Meter;
 use crate::pipeline::{FrameError, FrameOutput, Pipeline, Tracked};
+use crate::report::{Micro, Milli};
 use crate::scene::{FRAMES, HEIGHT, WIDTH};
 use crate::stack;
 use crate::stages::{Stage, StageTimes};
-use crate::summary::{Micro, Milli, Summary};
+use crate::summary::Summary;
 
 /// Bad input arrives after this frame, so the frames after it show that the pipeline kept going.
 const BAD_INPUT_AFTER: usize = 5;

@@ -123,6 +123,7 @@ impl Ego {
                 continue;
             };
             if let Some(&(_, before)) = self.history.get(at) {
+                // At most one pair per track: the push cannot fail either.
                 let _ = self.pairs.push((before, track.position));
             }
         }

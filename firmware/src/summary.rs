@@ -5,6 +5,7 @@ use cortex_m_semihosting::hprintln;
 use crate::checks::Verdict;
 use crate::meter::{instructions, Ticks};
 use crate::pipeline::Tracked;
+use crate::report::{Micro, Milli};
 use crate::stages::{Stage, StageTimes};
 
 /// Costs and check figures over the tracked frames of the sequence.
@@ -101,23 +102,5 @@ impl Summary {
             self.frames_stack,
             self.pipeline_stack,
         );
-    }
-}
-
-/// A number printed with three decimals.
-pub struct Milli(pub f32);
-
-impl core::fmt::Display for Milli {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:.3}", self.0)
-    }
-}
-
-/// A number printed with six decimals (radians).
-pub struct Micro(pub f32);
-
-impl core::fmt::Display for Micro {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:.6}", self.0)
     }
 }

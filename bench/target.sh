@@ -7,7 +7,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 target=thumbv7em-none-eabihf
-# Far above a normal run (about a second), far below CI's limit.
+# Far above a normal run (a few seconds), far below CI's limit.
 run_timeout=300
 
 if ! rustup target list --installed | grep -qx "$target"; then

@@ -14,6 +14,7 @@ import struct
 import sys
 
 BUDGET_INSTRUCTIONS = 1_000_000
+BUDGET_TRACKER_STATE = 64 * 1024
 BUDGET_RAM_AND_STACK = 96 * 1024
 BUDGET_LIBRARY_FLASH = 64 * 1024
 
@@ -85,6 +86,7 @@ def memory(elf_path, memory_x_path):
     # Aliases (one body under two names) count once.
     unique = {(addr, size): name for name, addr, size, _ in symbols if in_region(addr, "FLASH")}
     library = sum(size for (_, size), name in unique.items() if "kestrel" in name)
+    mavlink = sum(size for (_, size), name in unique.items() if "mavlink" in name and "kestrel" not in name)
     return {
         "sections": sections,
         "static_ram": static_ram,
@@ -92,6 +94,7 @@ def memory(elf_path, memory_x_path):
         "frames": frames,
         "flash": flash - frames,
         "library": library,
+        "mavlink": mavlink,
     }
 
 
@@ -118,7 +121,7 @@ def one(records, kind):
 
 
 def row(label, value, note=""):
-    return f"  {label:<40} {value:>12}  {note}".rstrip()
+    return f"  {label:<44} {value:>12}  {note}".rstrip()
 
 
 def main(argv):
@@ -129,82 +132,121 @@ def main(argv):
     mem = memory(elf, memory_x)
     config = one(records, "config")
     calibration = one(records, "calibration")
+    state = one(records, "memory")
+    prime = one(records, "prime")
     per_frame = one(records, "per_frame")
+    refills = one(records, "refills")
+    tolerances = one(records, "tolerances")
     one(records, "stack")  # printed last: the firmware reached its end
     stages = {s["name"]: int(s["instructions_per_frame"]) for s in records.get("stage", [])}
-    points = int(config["points"])
+    frames = int(per_frame["frames"])
 
-    total = int(per_frame["instructions"])
-    # The budget configuration's figures; the profile variants after it run deeper frames.
+    budget = int(per_frame["instructions"])
     stack_peak = int(per_frame["stack_peak"])
     ram_and_stack = mem["static_ram"] + stack_peak
+    followed = int(per_frame["followed"]) / max(frames, 1)
     out = []
     out.append("Kestrel on the STM32F405 (QEMU netduinoplus2, -icount shift=0)")
     out.append(
-        f"  {config['frame']} frames, {points} points on a grid, LK window {config['window']}x{config['window']}, "
-        f"max_level {config['max_level']} ({config['levels']} levels), {config['max_iterations']} iterations, "
-        f"illumination {config['illumination']}, scene motion {config['motion']} px/frame")
+        f"  {config['frame']} frames ({config['frames']}), tracker of {config['max_tracks']} tracks "
+        f"(refill below {config['refill_below']}, Shi-Tomasi on level {config['detect_level']}), "
+        f"LK window {config['window']}x{config['window']}, max_level {config['max_level']} "
+        f"({config['levels']} levels), {config['max_iterations']} iterations, {config['illumination']}")
+    out.append(
+        f"  dense grid of {config['cell']} px cells; camera motion {config['motion']} px/frame, "
+        f"object {config['object_motion']} px/frame")
     ipt = int(calibration["milli_instructions_per_tick"]) / 1000
     out.append(
         f"  SysTick calibration: {calibration['loop_instructions']} instructions = {calibration['ticks']} ticks "
         f"= {ipt:.3f} instructions/tick; ticks x 1000 / 21 is off by {calibration['error_ppm']} ppm")
     out.append("")
-    out.append(f"  {'per frame (mean of ' + per_frame['frames'] + ' frames)':<40} {'instructions':>12}  note")
-    for name, value in stages.items():
-        note = f"{value // points} per point" if name == "track" else ""
-        out.append(row(name, value, note))
-    out.append(row("refill", "-", "no detector in the library yet"))
-    ratio = total / BUDGET_INSTRUCTIONS
-    out.append(row("total", total, f"budget {BUDGET_INSTRUCTIONS}: {ratio:.1f}x"))
-    out.append(row("worst frame", per_frame["worst"]))
-    out.append(row("points tracked (worst frame)", per_frame["tracked_min"], f"of {points}"))
-    out.append(row("median flow error (worst frame)", per_frame["worst_error"] + " px", "tolerance 0.050"))
+    out.append(f"  {'per frame (mean of ' + str(frames) + ' frames)':<44} {'instructions':>12}  note")
+    out.append(row("pyramid", stages["pyramid"]))
+    out.append(row("tracking", stages["track"],
+                   f"forward + backward LK and gates, {followed:.1f} tracks: "
+                   f"{stages['track'] / max(followed, 1):.0f} per track"))
+    out.append(row("refill (detection)", stages["refill"],
+                   f"ran in {refills['frames']} of {frames} frames, "
+                   f"{refills['instructions_per_refill']} each"))
+    ratio = budget / BUDGET_INSTRUCTIONS
+    out.append(row("budget: pyramid + tracking + refill", budget,
+                   f"budget {BUDGET_INSTRUCTIONS}: {ratio:.1f}x"))
+    out.append(row("  worst frame", per_frame["worst"]))
+    out.append(row("ego-motion + OPTICAL_FLOW_RAD + MAVLink", stages["ego"],
+                   "homography RANSAC on the tracks"))
+    out.append(row("dense grid", stages["dense"], "LK at 300 nodes and the fill"))
+    out.append(row("motion boxes", stages["boxes"], "dominant motion, mask, regions"))
+    out.append(row("whole pipeline", per_frame["all_stages"]))
+    out.append(row("  worst frame", per_frame["worst_all_stages"]))
+    out.append(row("first frame (pyramid + detection)", prime["instructions"],
+                   f"{prime['tracks']} tracks started"))
     out.append("")
-    out.append(f"  {'memory':<40} {'bytes':>12}")
+    out.append(f"  {'checks, every frame (worst frame)':<44} {'measured':>12}  must be")
+    out.append(row("live tracks", per_frame["tracks_min"],
+                   f">= {tolerances['live_tracks']} ({per_frame['tracks']} after the last frame)"))
+    out.append(row("median track displacement error", per_frame["track_error_worst"] + " px",
+                   f"<= {tolerances['track_error']} px"))
+    out.append(row("OPTICAL_FLOW_RAD flow error", per_frame["flow_error_worst"] + " rad",
+                   f"<= {tolerances['flow_rad']} rad ({tolerances['flow_px']} px at the principal point)"))
+    out.append(row("best motion box IoU with the object", per_frame["box_iou_min"],
+                   f">= {tolerances['box_iou']}"))
+    out.append(row("boxes away from the object (all frames)", per_frame["false_boxes"], "0"))
+    out.append("")
+    out.append(f"  {'memory':<44} {'bytes':>12}")
+    out.append(row("tracker state", state["tracker_state"],
+                   f"budget {BUDGET_TRACKER_STATE}: both pyramids ({state['tracker_storage']} with "
+                   f"FAST's rows), tracks ({state['tracker_struct']}), scratch, candidates"))
+    out.append(row("dense grid and boxes state", state["dense_state"]))
+    out.append(row("ego-motion state", state["ego_state"], "RANSAC pairs, track history, MAVLink frame"))
     out.append(row("static RAM (.data + .bss)", mem["static_ram"]))
-    out.append(row("stack high-water mark", stack_peak, "boot to end of the budget run, printing included"))
-    out.append(row("  of which the pipeline, below its caller", per_frame["pipeline_stack"], "pyramid + LK"))
+    out.append(row("stack high-water mark", stack_peak, "boot to the end of the run, printing included"))
+    out.append(row("  start-up", per_frame["boot_stack"],
+                   "the pipeline is made on the stack, then moved to its static"))
+    out.append(row("  frames", per_frame["frames_stack"]))
+    out.append(row("  of which the pipeline, below its caller", per_frame["pipeline_stack"]))
     out.append(row("static RAM + stack", ram_and_stack, f"budget {BUDGET_RAM_AND_STACK}"))
     out.append(row("flash without the test frames", mem["flash"], "vector table, code, constants, .data image"))
     out.append(row("  of which Kestrel (symbol sizes)", mem["library"], f"budget {BUDGET_LIBRARY_FLASH}"))
+    out.append(row("  of which the mavlink crate", mem["mavlink"]))
     out.append(row("test frames in flash", mem["frames"], "stand-in for the camera"))
     out.append("")
-    out.append(profile(records, points))
-    out.append("  bad input (each must be refused, the frames after it still tracked)")
+    out.append(profile(records))
+    out.append("  bad input (each must be refused with quality 0, the frames after it still processed)")
     for bad in records.get("bad_input", []):
-        out.append(f"    {bad['case']:<14} -> {bad['outcome']}, quality {bad['quality']}")
+        out.append(f"    {bad['case']:<14} -> {bad['outcome']}, quality {bad['quality']} "
+                   f"(MAVLink frame: {bad['mavlink_quality']})")
     out.append("")
     print("\n".join(out))
 
     with open(log, errors="replace") as f:
         passed = any(line.strip() == "result pass" for line in f)
     print(
-        f"instructions_per_frame={total} static_ram={mem['static_ram']} stack_peak={stack_peak} "
-        f"flash={mem['flash']} tracks={per_frame['tracked_min']}")
+        f"instructions_per_frame={budget} static_ram={mem['static_ram']} stack_peak={stack_peak} "
+        f"flash={mem['flash']} tracks={per_frame['tracks']}")
     return 0 if passed else 1
 
 
-def profile(records, points):
-    """Where tracking spends its instructions, from the firmware's variant runs."""
+def profile(records):
+    """Where LK spends its instructions, from the firmware's variant runs."""
     variants = {v["name"]: v for v in records.get("variant", [])}
-    lines = [f"  {'tracking variants (same 11 frames)':<40} {'track/frame':>12}  per point, worst error"]
+    lines = [f"  {'LK variants (track_points, last pair, 100 points)':<44} {'instructions':>12}  "
+             "per point, tracked, median error"]
     for name, v in variants.items():
         desc = (f"{name} (w{v['window']} L{v['max_level']} it{v['max_iterations']} "
                 f"{v['illumination']})")
-        # The iteration-count variants stop every point before it converges: none is tracked.
-        error = f"{v['worst_error']} px" if int(v["tracked_min"]) else "none tracked"
-        lines.append(row(desc, v["track"], f"{v['track_per_point']}, {error}"))
+        # The iteration-count variants stop most points before they converge.
+        error = f"{v['median_error']} px" if int(v["tracked"]) > 10 else "not converged"
+        lines.append(row(desc, v["track"], f"{v['track_per_point']}, {v['tracked']}, {error}"))
     runs = [variants.get(k) for k in ("one_iteration", "two_iterations", "three_iterations")]
     if all(runs):
         # At level 0 with epsilon 0 every point runs exactly 1, 2 or 3 iterations. The first
         # computes the window's correlations with the template; a later one reuses them unless
-        # the estimate moved to another integer pixel (the first step often does, the second
-        # rarely).
-        one, two, three = (int(r["track"]) / points for r in runs)
-        lines.append(row("one template and its first iteration", round(one),
+        # the estimate moved to another integer pixel.
+        one, two, three = (int(r["track_per_point"]) for r in runs)
+        lines.append(row("one template and its first iteration", one,
                          "per point and level: sample, Scharr, sums, correlations, step"))
-        lines.append(row("second iteration", round(two - one), "per point, new correlations if moved"))
-        lines.append(row("third iteration", round(three - two), "per point, mostly the same pixel"))
+        lines.append(row("second iteration", two - one, "per point, new correlations if moved"))
+        lines.append(row("third iteration", three - two, "per point, mostly the same pixel"))
     lines.append("")
     return "\n".join(lines)
 

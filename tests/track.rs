@@ -674,6 +674,62 @@ fn frames_out_of_order_or_of_another_size_are_errors_that_change_nothing() {
 }
 
 #[test]
+fn observed_stages_and_the_pyramids_lent_out_match_a_plain_run() {
+    use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+    use kestrel::track::TrackerStage;
+
+    let (a, b) = frame_pair(64, 48);
+    let config = small_config();
+    let levels = config.pyramid_levels();
+    let (av, bv) = (a.view().unwrap(), b.view().unwrap());
+
+    let mut plain_buffers = HostBuffers::new(&config, 64, 48);
+    let mut plain = Tracker::<CAPACITY>::new(config, 64, 48, plain_buffers.lend()).unwrap();
+    plain.start(av).unwrap();
+    let expected = plain.process(av, bv, None).unwrap();
+
+    let mut buffers = HostBuffers::new(&config, 64, 48);
+    let mut tracker = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend()).unwrap();
+    tracker.start(av).unwrap();
+    let mut stages = Vec::new();
+    let report = tracker
+        .process_observed(av, bv, None, |stage| stages.push(stage))
+        .unwrap();
+    assert_eq!(report, expected);
+    assert_eq!(tracker.tracks(), plain.tracks());
+    let mut expected_stages = vec![TrackerStage::Pyramid, TrackerStage::Follow];
+    if report.detected {
+        expected_stages.push(TrackerStage::Refill);
+    }
+    assert_eq!(stages, expected_stages);
+
+    // The lent pyramids are the two frames' pyramids, level by level.
+    let (prev, next) = tracker.pyramids(av, bv).unwrap();
+    for (lent, frame) in [(prev, av), (next, bv)] {
+        let mut storage = vec![0u8; pyramid_storage_len(64, 48, levels)];
+        let built = Pyramid::build(frame, levels, &mut storage).unwrap();
+        for level in 0..=levels {
+            let (l, r) = (lent.level(level).unwrap(), built.level(level).unwrap());
+            let same = (0..l.height()).all(|y| (0..l.width()).all(|x| l.get(x, y) == r.get(x, y)));
+            assert!(same, "level {level} differs");
+        }
+    }
+    assert_eq!(
+        tracker.pyramids(bv, av).unwrap_err(),
+        TrackerError::NotThePreviousFrame
+    );
+
+    // A restart leaves one pyramid only; a refused frame changes nothing lent.
+    assert_eq!(tracker.process(bv, bv, Some(&|p| p)).map(|_| ()), Ok(()));
+    assert!(tracker.pyramids(bv, bv).is_ok());
+    tracker.start(av).unwrap();
+    assert_eq!(
+        tracker.pyramids(bv, av).unwrap_err(),
+        TrackerError::NotStarted
+    );
+}
+
+#[test]
 fn ids_keep_counting_across_restarts() {
     let (a, b) = frame_pair(96, 72);
     let config = small_config();

@@ -2,8 +2,9 @@
 
 use cortex_m_semihosting::hprintln;
 use kestrel::frame::ImageError;
-use kestrel::lk::LkError;
+use kestrel::track::TrackerError;
 
+use crate::checks::frame_quality;
 use crate::meter::Meter;
 use crate::pipeline::{FrameError, Pipeline};
 use crate::scene::{FRAME_LEN, HEIGHT, WIDTH};
@@ -17,9 +18,9 @@ struct BadInput {
     expected: FrameError,
 }
 
-/// Feeds frames the library must refuse: each must come back as an error value, with quality 0,
-/// and the frames after them must track as before. The bad frames are cut from `good`, a valid
-/// frame of the sequence.
+/// Feeds frames the library must refuse: each must come back as an error value, with a flow
+/// reading of quality 0 (in the reading and in its MAVLink frame), and the frames after them
+/// must be processed as before. The bad frames are cut from `good`, a valid frame.
 pub fn feed(pipeline: &mut Pipeline, meter: &Meter, good: &'static [u8]) -> bool {
     let cases = [
         BadInput {
@@ -38,26 +39,27 @@ pub fn feed(pipeline: &mut Pipeline, meter: &Meter, good: &'static [u8]) -> bool
             name: "wrong_size",
             pixels: good.get(..(WIDTH / 2) * (HEIGHT / 2)).unwrap_or(&[]),
             size: (WIDTH / 2, HEIGHT / 2),
-            expected: FrameError::Track(LkError::FrameSizeMismatch),
+            expected: FrameError::Track(TrackerError::FrameSizeMismatch),
         },
     ];
     let mut ok = true;
     for case in cases {
         let mut times = StageTimes::default();
         let outcome = pipeline.process(case.pixels, case.size, meter, &mut times);
-        let quality = match outcome {
-            Ok(Some(flow)) => flow.quality(),
-            _ => 0,
-        };
+        let (flow, mavlink) = pipeline.latest_flow();
+        let quality = flow.quality;
+        let wire_quality = frame_quality(mavlink);
+        let outcome = outcome.map(|_| ());
         hprintln!(
-            "bad_input case={} outcome={:?} quality={}",
+            "bad_input case={} outcome={:?} quality={} mavlink_quality={}",
             case.name,
             outcome,
-            quality
+            quality,
+            wire_quality
         );
-        if outcome != Err(case.expected) {
+        if outcome != Err(case.expected) || quality != 0 || wire_quality != 0 {
             hprintln!(
-                "error bad input {}: expected Err({:?})",
+                "error bad input {}: expected Err({:?}) and quality 0",
                 case.name,
                 case.expected
             );

@@ -1,5 +1,6 @@
-//! Kestrel on an STM32F405: the per-frame pipeline on synthetic frames in flash, checked against
-//! the known scene motion, with its cost measured per stage.
+//! Kestrel on an STM32F405: the per-frame pipeline (pyramid, tracker with refill, ego-motion and
+//! its OPTICAL_FLOW_RAD frame, dense grid and motion boxes) on synthetic frames in flash, checked
+//! against the scene's ground truth, with its cost measured per stage.
 //!
 //! `cargo run --release` runs it in QEMU (see `.cargo/config.toml`); `bench/target.sh` at the
 //! repository root runs it and prints the table. The output is one `key=value` record per line.
@@ -10,6 +11,10 @@
 mod bad_input;
 mod budget;
 mod camera;
+mod checks;
+mod dense;
+mod ego;
+mod memory;
 mod meter;
 mod pipeline;
 mod profile;
@@ -21,33 +26,31 @@ mod summary;
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use kestrel::lk::{LkParams, PointTrack};
 
+use dense::DenseMemory;
 use meter::{instructions, Meter};
-use pipeline::{Buffers, Pipeline, NO_TRACK, POINTS, PYRAMID_LEN, SCRATCH_LEN};
+use pipeline::{Pipeline, TrackerMemory};
 use report::{millipx_to_q16, Px};
-use scene::{FRAMES, HEIGHT, MOTION_MILLIPX, WIDTH};
+use scene::{FRAMES, HEIGHT, MOTION_MILLIPX, OBJECT_MOTION_MILLIPX, WIDTH};
 
 /// The calibration may deviate from 1000 / 21 instructions per tick by this much (0.1 %).
 const CALIBRATION_TOLERANCE_PPM: i64 = 1000;
 
 #[entry]
 fn main() -> ! {
-    static mut PYRAMIDS: [[u8; PYRAMID_LEN]; 2] = [[0; PYRAMID_LEN]; 2];
-    static mut TRACKS: [PointTrack; POINTS] = [NO_TRACK; POINTS];
-    static mut SCRATCH: [i16; SCRATCH_LEN] = [0; SCRATCH_LEN];
+    static mut TRACKER_MEMORY: TrackerMemory = TrackerMemory::new();
+    static mut DENSE_MEMORY: DenseMemory = DenseMemory::new();
 
-    let [first, second] = PYRAMIDS;
-    let buffers = Buffers {
-        pyramids: [first, second],
-        tracks: TRACKS,
-        scratch: SCRATCH,
-    };
     let Some(peripherals) = cortex_m::Peripherals::take() else {
         fail("core peripherals already taken")
     };
     let meter = Meter::new(peripherals.SYST);
-    let passed = run(&meter, buffers);
+    print_config();
+    let calibrated = calibrate(&meter);
+    let pipeline = make_pipeline(TRACKER_MEMORY, DENSE_MEMORY);
+    memory::print();
+    let passed = budget::run(pipeline, &meter) && calibrated;
+    profile::run(&meter, pipeline);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());
     if passed {
         hprintln!("result pass");
@@ -61,38 +64,47 @@ fn main() -> ! {
     }
 }
 
-/// Calibrates the meter, runs the budget configuration with its checks, then the profile.
-fn run(meter: &Meter, buffers: Buffers) -> bool {
-    let params = pipeline::budget_params();
-    print_config(&params);
-    let calibrated = calibrate(meter);
-    let mut pipeline = match Pipeline::new(params, buffers) {
+/// Makes the pipeline into its static: a `singleton!`, whose static stays in `.bss` where an
+/// `Option` of the pipeline would not (its `None` is not all zeros, which would put 11 KB in
+/// `.data` and its image in flash). Not inlined: the pipeline is built on the stack before it
+/// moves, and that space must be free again before the first frame.
+#[inline(never)]
+fn make_pipeline(
+    tracker: &'static mut TrackerMemory,
+    dense: &'static mut DenseMemory,
+) -> &'static mut Pipeline {
+    let pipeline = match Pipeline::new(tracker, dense) {
         Ok(p) => p,
-        Err(e) => {
-            hprintln!("error invalid LK parameters: {:?}", e);
-            return false;
-        }
+        Err(e) => fail_with("invalid pipeline settings", e),
     };
-    let tracked_correctly = budget::run(&mut pipeline, meter);
-    profile::run(meter, pipeline.into_buffers());
-    calibrated && tracked_correctly
+    match cortex_m::singleton!(: Pipeline = pipeline) {
+        Some(p) => p,
+        None => fail("the pipeline was made twice"),
+    }
 }
 
-fn print_config(params: &LkParams) {
+fn print_config() {
+    let config = pipeline::tracker_config();
     hprintln!(
-        "config frame={}x{} frames={} points={} window={} max_level={} levels={} \
-         max_iterations={} illumination={:?} motion={},{}",
+        "config frame={}x{} frames={} max_tracks={} refill_below={} window={} max_level={} \
+         levels={} max_iterations={} illumination={:?} detect_level={} cell={} motion={},{} \
+         object_motion={},{}",
         WIDTH,
         HEIGHT,
         FRAMES,
-        POINTS,
-        params.window,
-        params.max_level,
-        params.max_level + 1,
-        params.max_iterations,
-        params.illumination,
+        config.max_tracks,
+        config.refill_below,
+        config.lk.window,
+        config.lk.max_level,
+        config.lk.max_level + 1,
+        config.lk.max_iterations,
+        config.lk.illumination,
+        config.detect_level,
+        dense::CELL,
         Px(millipx_to_q16(MOTION_MILLIPX.0)),
         Px(millipx_to_q16(MOTION_MILLIPX.1)),
+        Px(millipx_to_q16(OBJECT_MOTION_MILLIPX.0)),
+        Px(millipx_to_q16(OBJECT_MOTION_MILLIPX.1)),
     );
 }
 

@@ -66,6 +66,29 @@ impl Meter {
     }
 }
 
+/// Splits one run of work into consecutive laps, for work that reports its own steps (the
+/// tracker calls back as each of its stages ends).
+pub struct Stopwatch {
+    last: u32,
+}
+
+impl Stopwatch {
+    /// Starts timing now.
+    pub fn start(_meter: &Meter) -> Self {
+        Self {
+            last: SYST::get_current(),
+        }
+    }
+
+    /// Ticks since the start or the previous lap.
+    pub fn lap(&mut self) -> Ticks {
+        let now = SYST::get_current();
+        let ticks = self.last.wrapping_sub(now) & COUNTER_MASK;
+        self.last = now;
+        Ticks(u64::from(ticks))
+    }
+}
+
 /// The outcome of timing a loop of known instruction count.
 pub struct Calibration {
     /// Instructions the loop executes between the two runs' difference.

@@ -1,215 +1,282 @@
-//! The per-frame pipeline: build the new frame's pyramid, then track the points from the
-//! previous frame into it.
+//! The per-frame pipeline: the tracker (pyramid, tracking, refill), the camera's motion from the
+//! tracks with its OPTICAL_FLOW_RAD reading, and the dense grid with its motion boxes.
 //!
-//! Two pyramid buffers alternate: one holds the previous frame's levels, the other receives the
-//! new frame's, and they swap once the frame is done. Level 0 is the camera frame itself,
-//! borrowed, never copied.
+//! The tracker keeps both pyramids in its storage and lends them to the dense grid, so every
+//! frame's pyramid is built once. Level 0 of each is the camera frame itself, borrowed in place,
+//! never copied.
 
+use kestrel::dense::grid::DenseSummary;
+use kestrel::dense::motion::MotionSummary;
+use kestrel::dense::DenseError;
+use kestrel::detect::Corner;
+use kestrel::ego::mavlink::EncodeError;
+use kestrel::ego::{CameraError, EgoMotion, OpticalFlowRad, RansacError};
 use kestrel::frame::{ImageError, ImageView};
-use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade, PointTrack, TrackStatus};
-use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
-use kestrel::{Point, Q16};
+use kestrel::lk::{scratch_len, LkParams};
+use kestrel::pyramid::Pyramid;
+use kestrel::track::{
+    detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers, TrackerConfig,
+    TrackerError, TrackerStage,
+};
+use kestrel::Point;
 
-use crate::meter::Meter;
+use crate::dense::{Dense, DenseMemory};
+use crate::ego::Ego;
+use crate::meter::{Meter, Stopwatch};
 use crate::scene::{HEIGHT, WIDTH};
 use crate::stages::{Stage, StageTimes};
 
 /// Coarsest pyramid level: three levels, 160x120, 80x60 and 40x30.
 pub const MAX_LEVEL: usize = 2;
-/// LK window side in pixels.
+/// LK window side in pixels, for the tracks and the dense grid.
 pub const WINDOW: usize = 9;
-/// Points across and down the tracking grid.
-pub const GRID_SIDE: usize = 10;
-/// Points tracked per frame.
-pub const POINTS: usize = GRID_SIDE * GRID_SIDE;
-/// Bytes of one pyramid's levels 1..=MAX_LEVEL.
-pub const PYRAMID_LEN: usize = pyramid_storage_len(WIDTH, HEIGHT, MAX_LEVEL);
+/// Tracks the tracker keeps.
+pub const MAX_TRACKS: usize = 100;
+/// Corner candidates of one detection: three per track spread new tracks over the frame.
+pub const CANDIDATES: usize = 3 * MAX_TRACKS;
+/// Pyramid level corners are detected on (the tracker's default).
+pub const DETECT_LEVEL: usize = 1;
+/// Bytes of the tracker's storage: two pyramids and FAST's rows.
+pub const STORAGE_LEN: usize = tracker_storage_len(WIDTH, HEIGHT, MAX_LEVEL);
 /// `i16` values of LK scratch for the window.
-pub const SCRATCH_LEN: usize = scratch_len(WINDOW);
+pub const LK_SCRATCH_LEN: usize = scratch_len(WINDOW);
+/// `i32` words of Shi-Tomasi scratch.
+pub const DETECT_SCRATCH_LEN: usize = detect_scratch_len(WIDTH, DETECT_LEVEL, CANDIDATES);
 
-/// A track result before any frame has been tracked.
-pub const NO_TRACK: PointTrack = PointTrack {
-    position: Point::from_bits(0, 0),
-    status: TrackStatus::OutOfBounds,
-    residual: Q16::ZERO,
-};
+/// The tracker of the budget configuration.
+pub type FrameTracker = Tracker<'static, MAX_TRACKS>;
 
-/// The LK configuration of the budget run: OpenCV's defaults but for the window and depth.
-pub fn budget_params() -> LkParams {
-    LkParams {
-        window: WINDOW,
-        max_level: MAX_LEVEL,
-        ..LkParams::default()
+/// The tracker's settings: its defaults (100 tracks, refill below 80, Shi-Tomasi on level 1),
+/// with a 9x9 LK window on three levels.
+pub fn tracker_config() -> TrackerConfig {
+    let defaults = TrackerConfig::default();
+    TrackerConfig {
+        lk: LkParams {
+            window: WINDOW,
+            max_level: MAX_LEVEL,
+            ..defaults.lk
+        },
+        max_tracks: MAX_TRACKS,
+        detect_level: DETECT_LEVEL,
+        ..defaults
     }
 }
 
-/// The buffers the pipeline works in, all `'static` so that they land in `.bss`.
-pub struct Buffers {
-    pub pyramids: [&'static mut [u8]; 2],
-    pub tracks: &'static mut [PointTrack; POINTS],
-    pub scratch: &'static mut [i16],
+/// The tracker's buffers, in one `static` so that they land in `.bss`.
+pub struct TrackerMemory {
+    storage: [u8; STORAGE_LEN],
+    lk_scratch: [i16; LK_SCRATCH_LEN],
+    detect_scratch: [i32; DETECT_SCRATCH_LEN],
+    candidates: [Corner; CANDIDATES],
 }
 
-/// Why a frame produced no flow.
+impl TrackerMemory {
+    /// Zeroed buffers, for a `static` initialiser.
+    pub const fn new() -> Self {
+        // `Corner::default` is not `const`.
+        const NO_CORNER: Corner = Corner {
+            position: Point::from_bits(0, 0),
+            score: 0,
+        };
+        Self {
+            storage: [0; STORAGE_LEN],
+            lk_scratch: [0; LK_SCRATCH_LEN],
+            detect_scratch: [0; DETECT_SCRATCH_LEN],
+            candidates: [NO_CORNER; CANDIDATES],
+        }
+    }
+}
+
+/// Why a frame produced no flow, or the pipeline could not be made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrameError {
     Image(ImageError),
-    Pyramid(PyramidError),
-    Track(LkError),
+    Track(TrackerError),
+    Camera(CameraError),
+    Ego(RansacError),
+    Mavlink(EncodeError),
+    Dense(DenseError),
 }
 
-/// The flow of one frame, summarised over the tracked points.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Flow {
-    /// Points whose status is [`TrackStatus::Tracked`].
-    pub tracked: usize,
-    /// Median displacement of the tracked points, Q16 raw bits; `None` when none was tracked.
-    pub median: Option<(i32, i32)>,
+/// What one frame pair produced.
+#[derive(Debug, Clone, Copy)]
+pub struct Tracked {
+    /// What happened to the tracks.
+    pub report: FrameReport,
+    /// The camera's motion, fitted to the tracks followed into this frame.
+    pub motion: EgoMotion,
+    /// The OPTICAL_FLOW_RAD reading of this frame pair.
+    pub flow: OpticalFlowRad,
+    /// The dense grid's measured and filled nodes.
+    pub grid: DenseSummary,
+    /// The motion mask and its boxes.
+    pub moving: MotionSummary,
 }
 
-impl Flow {
-    /// PX4FLOW-style quality: the share of tracked points, 0 (invalid) to 255.
-    pub fn quality(&self) -> u8 {
-        (self.tracked * 255 / POINTS) as u8
-    }
-}
-
-/// The pyramid of the previous frame and the buffer for the next one.
-struct PingPong {
-    previous: Option<ImageView<'static>>,
-    previous_levels: &'static mut [u8],
-    next_levels: &'static mut [u8],
-}
-
-impl PingPong {
-    fn swap(&mut self, newest: ImageView<'static>) {
-        core::mem::swap(&mut self.previous_levels, &mut self.next_levels);
-        self.previous = Some(newest);
-    }
-}
-
-/// Everything tracking needs besides the pyramids.
-struct Tracker {
-    lk: LucasKanade,
-    points: [Point; POINTS],
-    tracks: &'static mut [PointTrack; POINTS],
-    scratch: &'static mut [i16],
+/// What one frame produced.
+#[derive(Debug, Clone, Copy)]
+pub enum FrameOutput {
+    /// The first frame: the tracker started, with this many tracks.
+    Started(usize),
+    /// Any later frame.
+    Tracked(Tracked),
 }
 
 /// The per-frame pipeline over frames of the scene's size.
 pub struct Pipeline {
-    pyramids: PingPong,
-    tracker: Tracker,
-    max_level: usize,
+    tracker: FrameTracker,
+    /// The last frame the tracker accepted.
+    previous: Option<ImageView<'static>>,
+    ego: Ego,
+    dense: Dense,
 }
 
 impl Pipeline {
-    /// A pipeline that tracks the grid with `params`, in `buffers`.
-    pub fn new(params: LkParams, buffers: Buffers) -> Result<Self, LkError> {
-        let [previous_levels, next_levels] = buffers.pyramids;
+    /// A pipeline in the given buffers, its settings checked.
+    pub fn new(
+        tracker: &'static mut TrackerMemory,
+        dense: &'static mut DenseMemory,
+    ) -> Result<Self, FrameError> {
+        let buffers = TrackerBuffers {
+            storage: &mut tracker.storage,
+            lk_scratch: &mut tracker.lk_scratch,
+            detect_scratch: &mut tracker.detect_scratch,
+            candidates: &mut tracker.candidates,
+        };
+        let tracker =
+            Tracker::new(tracker_config(), WIDTH, HEIGHT, buffers).map_err(FrameError::Track)?;
         Ok(Self {
-            pyramids: PingPong {
-                previous: None,
-                previous_levels,
-                next_levels,
-            },
-            tracker: Tracker {
-                lk: LucasKanade::new(params)?,
-                points: grid(),
-                tracks: buffers.tracks,
-                scratch: buffers.scratch,
-            },
-            max_level: params.max_level,
+            tracker,
+            previous: None,
+            ego: Ego::new()?,
+            dense: Dense::new(dense)?,
         })
     }
 
     /// Runs the pipeline on a `width` x `height` frame, timing each stage into `times`.
     ///
-    /// The first frame only primes the pyramid (`Ok(None)`). A refused frame leaves the previous
-    /// pyramid in place, so the next good frame tracks from the last good one.
+    /// A refused frame leaves the tracker as it was, so the next good frame is tracked from the
+    /// last good one; the flow reading of a refused frame has quality 0.
     pub fn process(
+        &mut self,
+        pixels: &'static [u8],
+        size: (usize, usize),
+        meter: &Meter,
+        times: &mut StageTimes,
+    ) -> Result<FrameOutput, FrameError> {
+        let outcome = self.process_frame(pixels, size, meter, times);
+        if outcome.is_err() {
+            self.ego.refuse().map_err(FrameError::Mavlink)?;
+        }
+        outcome
+    }
+
+    fn process_frame(
         &mut self,
         pixels: &'static [u8],
         (width, height): (usize, usize),
         meter: &Meter,
         times: &mut StageTimes,
-    ) -> Result<Option<Flow>, FrameError> {
-        let frame = ImageView::packed(pixels, width, height).map_err(FrameError::Image)?;
-        let pyramids = &mut self.pyramids;
-        let max_level = self.max_level;
-        let next = times
-            .run(meter, Stage::Pyramid, || {
-                Pyramid::build(frame, max_level, pyramids.next_levels)
-            })
-            .map_err(FrameError::Pyramid)?;
-        let flow = match pyramids.previous {
-            Some(previous) => {
-                let prev = Pyramid::from_storage(previous, max_level, pyramids.previous_levels)
-                    .map_err(FrameError::Pyramid)?;
-                let tracker = &mut self.tracker;
-                times
-                    .run(meter, Stage::Track, || tracker.track(&prev, &next))
-                    .map_err(FrameError::Track)?;
-                Some(tracker.flow())
-            }
-            None => None,
+    ) -> Result<FrameOutput, FrameError> {
+        let next = ImageView::packed(pixels, width, height).map_err(FrameError::Image)?;
+        let Some(prev) = self.previous else {
+            let report = self.start(next, meter, times)?;
+            return Ok(FrameOutput::Started(report.live));
         };
-        pyramids.swap(frame);
-        Ok(flow)
+        let report = self.track(prev, next, meter, times)?;
+        self.previous = Some(next);
+        let (motion, flow) = times.run(meter, Stage::Ego, || {
+            self.ego.estimate(self.tracker.tracks())
+        })?;
+        let (prev, next) = self
+            .tracker
+            .pyramids(prev, next)
+            .map_err(FrameError::Track)?;
+        let dense = &mut self.dense;
+        let grid = times
+            .run(meter, Stage::Dense, || dense.grid(&prev, &next))
+            .map_err(FrameError::Dense)?;
+        let moving = times
+            .run(meter, Stage::Boxes, || dense.boxes(&grid.layout))
+            .map_err(FrameError::Dense)?;
+        Ok(FrameOutput::Tracked(Tracked {
+            report,
+            motion,
+            flow,
+            grid,
+            moving,
+        }))
     }
 
-    /// Gives the buffers back, for a pipeline with other parameters.
-    pub fn into_buffers(self) -> Buffers {
-        Buffers {
-            pyramids: [self.pyramids.previous_levels, self.pyramids.next_levels],
-            tracks: self.tracker.tracks,
-            scratch: self.tracker.scratch,
-        }
+    /// The first frame: its pyramid and the first detection, timed as one.
+    fn start(
+        &mut self,
+        frame: ImageView<'static>,
+        meter: &Meter,
+        times: &mut StageTimes,
+    ) -> Result<FrameReport, FrameError> {
+        let tracker = &mut self.tracker;
+        let report = times
+            .run(meter, Stage::Refill, || tracker.start(frame))
+            .map_err(FrameError::Track)?;
+        self.ego.remember(self.tracker.tracks());
+        self.previous = Some(frame);
+        Ok(report)
     }
-}
 
-impl Tracker {
-    fn track(&mut self, prev: &Pyramid<'_>, next: &Pyramid<'_>) -> Result<(), LkError> {
-        self.lk
-            .track_points(prev, next, &self.points, None, self.tracks, self.scratch)
+    /// Pyramid, tracking and refill, timed apart as the tracker reports each stage's end.
+    fn track(
+        &mut self,
+        prev: ImageView<'static>,
+        next: ImageView<'static>,
+        meter: &Meter,
+        times: &mut StageTimes,
+    ) -> Result<FrameReport, FrameError> {
+        let mut watch = Stopwatch::start(meter);
+        let report = self.tracker.process_observed(prev, next, None, |stage| {
+            let stage = match stage {
+                TrackerStage::Pyramid => Stage::Pyramid,
+                TrackerStage::Follow => Stage::Track,
+                TrackerStage::Refill => Stage::Refill,
+            };
+            times.add(stage, watch.lap());
+        });
+        // What follows the last stage is the tracker's bookkeeping: counted as tracking.
+        times.add(Stage::Track, watch.lap());
+        report.map_err(FrameError::Track)
     }
 
-    /// Counts the tracked points and takes the median of their displacements.
-    fn flow(&self) -> Flow {
-        let mut dx = [0i32; POINTS];
-        let mut dy = [0i32; POINTS];
-        let mut tracked = 0;
-        for (point, track) in self.points.iter().zip(self.tracks.iter()) {
-            if track.is_tracked() {
-                dx[tracked] = (track.position.x - point.x).to_bits();
-                dy[tracked] = (track.position.y - point.y).to_bits();
-                tracked += 1;
-            }
-        }
-        let median = median(&mut dx[..tracked]).zip(median(&mut dy[..tracked]));
-        Flow { tracked, median }
+    /// The tracks followed into the latest frame: (position before, position now).
+    pub fn pairs(&self) -> &[(Point, Point)] {
+        self.ego.pairs()
     }
-}
 
-/// A `GRID_SIDE` x `GRID_SIDE` grid of cell centres over the whole frame. The outer points sit
-/// 6-8 px from the edges, so at the coarser levels their windows cross the border, as detected
-/// corners' windows would.
-fn grid() -> [Point; POINTS] {
-    // Cell centres of an even split of the frame: 8 px from the side edges, 6 px from the top.
-    let cell = |i: usize, size: usize| ((2 * i + 1) * size / (2 * GRID_SIDE)) as i32;
-    core::array::from_fn(|k| {
-        let (column, row) = (k % GRID_SIDE, k / GRID_SIDE);
-        Point::from_bits(cell(column, WIDTH) << 16, cell(row, HEIGHT) << 16)
-    })
-}
+    /// The latest OPTICAL_FLOW_RAD reading and its MAVLink frame.
+    pub fn latest_flow(&self) -> (&OpticalFlowRad, &[u8]) {
+        self.ego.latest()
+    }
 
-/// The median of `values` (the mean of the middle two for an even count), reordering them.
-fn median(values: &mut [i32]) -> Option<i32> {
-    values.sort_unstable();
-    let n = values.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(values[n / 2]),
-        _ => Some(((i64::from(values[n / 2 - 1]) + i64::from(values[n / 2])) / 2) as i32),
+    /// The boxes of the latest frame, largest first, in the previous frame's pixels.
+    pub fn boxes(&self) -> &[kestrel::dense::regions::MotionBox] {
+        self.dense.found()
+    }
+
+    /// The camera model the flow readings are in.
+    pub fn focal_length(&self) -> f32 {
+        self.ego.focal_length()
+    }
+
+    /// The pyramids of the latest frame pair (`prev` and `next` must be its frames) and an LK
+    /// scratch, for measurements beside the pipeline.
+    pub fn latest_pair(
+        &mut self,
+        prev: ImageView<'static>,
+        next: ImageView<'static>,
+    ) -> Result<(Pyramid<'_>, Pyramid<'_>, &mut [i16]), FrameError> {
+        let (prev, next) = self
+            .tracker
+            .pyramids(prev, next)
+            .map_err(FrameError::Track)?;
+        Ok((prev, next, self.dense.lk_scratch()))
     }
 }

@@ -1,50 +1,90 @@
-//! Where the instructions go: variants of the budget configuration over the same sequence.
+//! Where tracking's instructions go: `LucasKanade::track_points` in variants of the budget
+//! configuration, on the last frame pair's pyramids (lent by the tracker), for a 10x10 grid of
+//! points. Reported, never checked.
 
 use cortex_m_semihosting::hprintln;
-use kestrel::lk::{Illumination, LkParams};
+use kestrel::frame::ImageView;
+use kestrel::lk::{Illumination, LkParams, LucasKanade, PointTrack};
+use kestrel::Point;
 
 use crate::camera;
-use crate::meter::Meter;
-use crate::pipeline::{self, Buffers, Pipeline, POINTS};
-use crate::report::Px;
-use crate::scene::{FRAMES, HEIGHT, WIDTH};
-use crate::stages::{Stage, StageTimes};
-use crate::summary::Summary;
+use crate::meter::{instructions, Meter};
+use crate::pipeline::{tracker_config, Pipeline};
+use crate::report::{millipx_to_q16, Px};
+use crate::scene::{FRAMES, HEIGHT, MOTION_MILLIPX, WIDTH};
 
-/// Where the instructions go: the costs of one template and of the iterations after it, and
-/// variants of the budget configuration over the same sequence. Reported, never checked.
+/// Points across and down the grid.
+const GRID_SIDE: usize = 10;
+/// Points tracked per variant.
+pub const POINTS: usize = GRID_SIDE * GRID_SIDE;
+
+/// Runs every variant on the last frame pair and prints its cost and accuracy.
 // Never inlined: bench/target_profile.py stops counting where this function is first entered.
 #[inline(never)]
-pub fn run(meter: &Meter, buffers: Buffers) {
-    let budget = pipeline::budget_params();
+pub fn run(meter: &Meter, pipeline: &mut Pipeline) {
+    let views = (
+        ImageView::packed(camera::frame(FRAMES - 2), WIDTH, HEIGHT),
+        ImageView::packed(camera::frame(FRAMES - 1), WIDTH, HEIGHT),
+    );
+    let (Ok(prev), Ok(next)) = views else {
+        hprintln!("error profile: the last frames are missing");
+        return;
+    };
+    let (prev, next, scratch) = match pipeline.latest_pair(prev, next) {
+        Ok(pair) => pair,
+        Err(e) => {
+            hprintln!("error profile: no pyramids of the last pair: {:?}", e);
+            return;
+        }
+    };
+    let points = grid();
+    let mut tracks = [PointTrack::default(); POINTS];
+    for (name, params) in variants() {
+        let Ok(lk) = LucasKanade::new(params) else {
+            hprintln!("error profile: variant {} refused", name);
+            continue;
+        };
+        let (result, ticks) =
+            meter.measure(|| lk.track_points(&prev, &next, &points, None, &mut tracks, scratch));
+        if let Err(e) = result {
+            hprintln!("error profile: variant {}: {:?}", name, e);
+            continue;
+        }
+        let (tracked, error) = accuracy(&points, &tracks);
+        let track = instructions(ticks);
+        hprintln!(
+            "variant name={} window={} max_level={} max_iterations={} illumination={:?} \
+             track={} track_per_point={} tracked={} median_error={}",
+            name,
+            params.window,
+            params.max_level,
+            params.max_iterations,
+            params.illumination,
+            track,
+            track / POINTS as u64,
+            tracked,
+            error.map_or(Px(i32::MAX), Px),
+        );
+    }
+}
+
+/// The budget's LK settings and variants of them.
+fn variants() -> [(&'static str, LkParams); 8] {
+    let budget = tracker_config().lk;
     // With epsilon 0 every point runs exactly its iteration limit at the single level.
     let one_level = LkParams {
         max_level: 0,
         epsilon: 0.0,
         ..budget
     };
-    let variants = [
-        (
-            "one_iteration",
-            LkParams {
-                max_iterations: 1,
-                ..one_level
-            },
-        ),
-        (
-            "two_iterations",
-            LkParams {
-                max_iterations: 2,
-                ..one_level
-            },
-        ),
-        (
-            "three_iterations",
-            LkParams {
-                max_iterations: 3,
-                ..one_level
-            },
-        ),
+    let iterations = |n| LkParams {
+        max_iterations: n,
+        ..one_level
+    };
+    [
+        ("one_iteration", iterations(1)),
+        ("two_iterations", iterations(2)),
+        ("three_iterations", iterations(3)),
         ("budget", budget),
         (
             "plain_illumination",
@@ -68,54 +108,46 @@ pub fn run(meter: &Meter, buffers: Buffers) {
             },
         ),
         (
-            "max_iterations_10",
-            LkParams {
-                max_iterations: 10,
-                ..budget
-            },
-        ),
-        (
             "epsilon_0.03",
             LkParams {
                 epsilon: 0.03,
                 ..budget
             },
         ),
-    ];
-    let mut buffers = buffers;
-    for (name, params) in variants {
-        let (sum, returned) = variant_run(meter, params, buffers);
-        buffers = returned;
-        hprintln!(
-            "variant name={} window={} max_level={} max_iterations={} illumination={:?} \
-             pyramid={} track={} track_per_point={} tracked_min={} worst_error={}",
-            name,
-            params.window,
-            params.max_level,
-            params.max_iterations,
-            params.illumination,
-            sum.per_frame(sum.times.get(Stage::Pyramid)),
-            sum.per_frame(sum.times.get(Stage::Track)),
-            sum.per_frame(sum.times.get(Stage::Track)) / POINTS as u64,
-            sum.min_tracked.unwrap_or(0),
-            Px(sum.worst_error),
-        );
-    }
+    ]
 }
 
-/// Runs the sequence with `params` in `buffers`, quietly; gives the buffers back.
-fn variant_run(meter: &Meter, params: LkParams, buffers: Buffers) -> (Summary, Buffers) {
-    let mut sum = Summary::default();
-    let mut pipeline = match Pipeline::new(params, buffers) {
-        Ok(p) => p,
-        Err(e) => crate::fail_with("variant parameters", e),
-    };
-    for index in 0..FRAMES {
-        let mut times = StageTimes::default();
-        let outcome = pipeline.process(camera::frame(index), (WIDTH, HEIGHT), meter, &mut times);
-        if index > 0 {
-            sum.add(&times, &outcome);
-        }
+/// Tracked points, and the largest axis error of their median displacement against the
+/// camera's motion (the object covers a few of the points; the median ignores them).
+fn accuracy(points: &[Point; POINTS], tracks: &[PointTrack; POINTS]) -> (usize, Option<i32>) {
+    let mut dx = [0i32; POINTS];
+    let mut dy = [0i32; POINTS];
+    let mut n = 0;
+    for (point, track) in points.iter().zip(tracks).filter(|(_, t)| t.is_tracked()) {
+        dx[n] = (track.position.x - point.x).to_bits();
+        dy[n] = (track.position.y - point.y).to_bits();
+        n += 1;
     }
-    (sum, pipeline.into_buffers())
+    let median = |values: &mut [i32]| {
+        values.sort_unstable();
+        values.get(values.len() / 2).copied()
+    };
+    let error = median(&mut dx[..n])
+        .zip(median(&mut dy[..n]))
+        .map(|(x, y)| {
+            let ex = x - millipx_to_q16(MOTION_MILLIPX.0);
+            let ey = y - millipx_to_q16(MOTION_MILLIPX.1);
+            ex.saturating_abs().max(ey.saturating_abs())
+        });
+    (n, error)
+}
+
+/// A `GRID_SIDE` x `GRID_SIDE` grid of cell centres over the whole frame: 8 px from the side
+/// edges, 6 px from the top, so at the coarser levels the outer windows cross the border.
+fn grid() -> [Point; POINTS] {
+    let cell = |i: usize, size: usize| ((2 * i + 1) * size / (2 * GRID_SIDE)) as i32;
+    core::array::from_fn(|k| {
+        let (column, row) = (k % GRID_SIDE, k / GRID_SIDE);
+        Point::from_bits(cell(column, WIDTH) << 16, cell(row, HEIGHT) << 16)
+    })
 }

@@ -25,3 +25,21 @@ pub const fn millipx_to_q16(millipx: i32) -> i32 {
     };
     rounded as i32
 }
+
+/// A number printed with three decimals.
+pub struct Milli(pub f32);
+
+impl fmt::Display for Milli {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.3}", self.0)
+    }
+}
+
+/// A number printed with six decimals (radians).
+pub struct Micro(pub f32);
+
+impl fmt::Display for Micro {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.6}", self.0)
+    }
+}

@@ -79,7 +79,7 @@ pub use config::{Detector, TrackerConfig};
 use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::lk::{scratch_len, LkError};
-use crate::pyramid::{Pyramid, PyramidError};
+use crate::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
 use crate::q16::{Point, Q16};
 use anchor::Anchor;
 use buffers::StorageParts;
@@ -240,6 +240,26 @@ struct Previous {
     fingerprint: Fingerprint,
     /// Which half of the storage holds its pyramid.
     half: usize,
+    /// The frame before it, when the other half still holds that frame's pyramid (after
+    /// [`Tracker::process`], not after [`Tracker::start`]).
+    earlier: Option<Fingerprint>,
+}
+
+/// A step of [`Tracker::process_observed`], reported as it ends.
+///
+/// ```
+/// use kestrel::track::TrackerStage;
+/// assert_ne!(TrackerStage::Pyramid, TrackerStage::Follow);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TrackerStage {
+    /// The new frame's pyramid is built (after the frame checks).
+    Pyramid,
+    /// Every live track was followed forward and back, and the gates applied.
+    Follow,
+    /// New corners were detected and new tracks started; only in frames that refill.
+    Refill,
 }
 
 /// A KLT tracker of at most `N` tracks over `width` x `height` frames, working in the caller's
@@ -346,12 +366,51 @@ impl<'a, const N: usize> Tracker<'a, N> {
         next: ImageView<'_>,
         predict: Option<&dyn Fn(Point) -> Point>,
     ) -> Result<FrameReport, TrackerError> {
+        self.process_observed(prev, next, predict, |_| {})
+    }
+
+    /// [`Tracker::process`], calling `stage_ended` as each [`TrackerStage`] ends: firmware
+    /// reads a cycle counter there to time the pyramid, the tracking and the refill apart.
+    /// What comes after the last stage (remembering the frame) is a few hundred instructions.
+    ///
+    /// ```
+    /// use kestrel::track::{TrackerStage, Tracker, TrackerConfig};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+    /// # let mut candidates = [Corner::default(); 4];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+    /// let flat = [100u8; 32 * 32];
+    /// let frame = ImageView::packed(&flat, 32, 32).unwrap();
+    /// tracker.start(frame).unwrap();
+    /// let mut stages = heapless::Vec::<TrackerStage, 3>::new();
+    /// tracker.process_observed(frame, frame, None, |s| stages.push(s).unwrap()).unwrap();
+    /// // A flat frame has no corners, so the tracker stays below its refill threshold.
+    /// assert_eq!(stages, [TrackerStage::Pyramid, TrackerStage::Follow, TrackerStage::Refill]);
+    /// ```
+    pub fn process_observed(
+        &mut self,
+        prev: ImageView<'_>,
+        next: ImageView<'_>,
+        predict: Option<&dyn Fn(Point) -> Point>,
+        mut stage_ended: impl FnMut(TrackerStage),
+    ) -> Result<FrameReport, TrackerError> {
         self.check_size(&prev)?;
         self.check_size(&next)?;
         let previous = self.previous.ok_or(TrackerError::NotStarted)?;
         if Fingerprint::of(&prev) != previous.fingerprint {
             return Err(TrackerError::NotThePreviousFrame);
         }
+        // The other half is overwritten now: it no longer holds the frame before `prev`.
+        self.previous = Some(Previous {
+            earlier: None,
+            ..previous
+        });
         let levels = self.config.pyramid_levels();
         let StorageParts {
             halves: [first, second],
@@ -365,6 +424,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         let prev_pyramid =
             Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
         let next_pyramid = Pyramid::build(next, levels, new).map_err(TrackerError::Pyramid)?;
+        stage_ended(TrackerStage::Pyramid);
 
         let mut report = FrameReport::default();
         let follow = Follow {
@@ -381,11 +441,74 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 &mut report,
             )
             .map_err(TrackerError::Lk)?;
+        stage_ended(TrackerStage::Follow);
         let half = 1 - previous.half;
         if self.set.tracks.len() < self.config.refill_below {
             self.refill(next, half, &mut report)?;
+            stage_ended(TrackerStage::Refill);
         }
-        Ok(self.finish_frame(&next, half, report))
+        let report = self.finish_frame(&next, half, report);
+        if let Some(latest) = self.previous.as_mut() {
+            latest.earlier = Some(previous.fingerprint);
+        }
+        Ok(report)
+    }
+
+    /// The pyramids of the latest [`Tracker::process`]: `prev`'s and `next`'s, which must be
+    /// the frames given to it. Other per-frame work (a dense flow grid, say) can then use them
+    /// instead of building its own, which saves their memory and time. They stay valid until
+    /// the next `process` or `start`, and do not exist after [`Tracker::start`]
+    /// ([`TrackerError::NotStarted`]). Frames other than those given are
+    /// [`TrackerError::NotThePreviousFrame`].
+    ///
+    /// ```
+    /// use kestrel::track::{Tracker, TrackerConfig, TrackerError};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+    /// # let mut candidates = [Corner::default(); 4];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+    /// let (dark, bright) = ([90u8; 32 * 32], [110u8; 32 * 32]);
+    /// let a = ImageView::packed(&dark, 32, 32).unwrap();
+    /// let b = ImageView::packed(&bright, 32, 32).unwrap();
+    /// tracker.start(a).unwrap();
+    /// assert_eq!(tracker.pyramids(a, a).unwrap_err(), TrackerError::NotStarted);
+    /// tracker.process(a, b, None).unwrap();
+    /// let (prev, next) = tracker.pyramids(a, b).unwrap();
+    /// assert_eq!(prev.level(2).unwrap().get(3, 3), Some(90));
+    /// assert_eq!(next.level(2).unwrap().get(3, 3), Some(110));
+    /// assert_eq!(tracker.pyramids(b, a).unwrap_err(), TrackerError::NotThePreviousFrame);
+    /// ```
+    pub fn pyramids<'f>(
+        &'f self,
+        prev: ImageView<'f>,
+        next: ImageView<'f>,
+    ) -> Result<(Pyramid<'f>, Pyramid<'f>), TrackerError> {
+        self.check_size(&prev)?;
+        self.check_size(&next)?;
+        let latest = self.previous.ok_or(TrackerError::NotStarted)?;
+        let earlier = latest.earlier.ok_or(TrackerError::NotStarted)?;
+        if Fingerprint::of(&prev) != earlier || Fingerprint::of(&next) != latest.fingerprint {
+            return Err(TrackerError::NotThePreviousFrame);
+        }
+        let levels = self.config.pyramid_levels();
+        let len = pyramid_storage_len(self.width, self.height, levels);
+        let storage: &'f [u8] = self.buffers.storage;
+        let (first, rest) = storage.split_at(len.min(storage.len()));
+        let second = rest.get(..len).unwrap_or(rest);
+        let (old, new) = if latest.half == 0 {
+            (second, first)
+        } else {
+            (first, second)
+        };
+        let prev = Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
+        let next = Pyramid::from_storage(next, levels, new).map_err(TrackerError::Pyramid)?;
+        Ok((prev, next))
     }
 
     /// The live tracks, oldest first.
@@ -501,6 +624,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         self.previous = Some(Previous {
             fingerprint: Fingerprint::of(frame),
             half,
+            earlier: None,
         });
         self.next_frame = self.next_frame.wrapping_add(1);
         report.live = self.set.tracks.len();

@@ -72,7 +72,7 @@ pub trait CameraMotion {
 /// assert_eq!(motion_scratch_len(160, 120, 8), 10 + 300);
 /// ```
 pub const fn motion_scratch_len(width: usize, height: usize, cell: usize) -> usize {
-    mask_words(width, height, cell) + grid_len(width, height, cell)
+    mask_words(width, height, cell).saturating_add(grid_len(width, height, cell))
 }
 
 /// Motion-detection parameters.
@@ -191,11 +191,11 @@ impl MotionDetector {
             return Err(DenseError::NodesTooShort);
         }
         let limit = self.params.threshold * self.params.threshold;
-        let mut moving = 0;
+        let mut moving = 0usize;
         for (index, node) in nodes.iter().take(layout.len()).enumerate() {
             let moves = self.counts(node) && self.residual_sq(layout, index, node, camera) > limit;
             set(mask, index, moves);
-            moving += usize::from(moves);
+            moving = moving.saturating_add(usize::from(moves));
         }
         Ok(moving)
     }
@@ -220,7 +220,7 @@ impl MotionDetector {
         boxes: &mut [MotionBox],
     ) -> Result<MotionSummary, DenseError> {
         let words = words_for(layout.len());
-        if scratch.len() < words + layout.len() {
+        if scratch.len() < words.saturating_add(layout.len()) {
             return Err(DenseError::MotionScratchTooShort);
         }
         let (temp, stack) = scratch.split_at_mut(words);

@@ -17,6 +17,10 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// Panics stay out of the library: no unwrap, expect, panic, todo, unimplemented or
+// unreachable, no indexing or slicing that can go out of bounds, and no integer arithmetic
+// that can overflow (checked, saturating or wrapping operations say what happens instead).
+// CI runs clippy with `-D warnings`. Tests may panic.
 #![cfg_attr(
     not(test),
     warn(
@@ -24,7 +28,10 @@
         clippy::expect_used,
         clippy::panic,
         clippy::todo,
-        clippy::unimplemented
+        clippy::unimplemented,
+        clippy::unreachable,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects
     )
 )]
 
@@ -32,7 +39,22 @@ pub mod dense;
 pub mod detect;
 pub mod ego;
 pub mod frame;
+// The LK core and the pyramid are hot per-pixel loops: window sums, bilinear sampling and the
+// pyramid filter index pixel rows and multiply samples millions of times a frame. Their
+// indices and sums are validated once up front (frame geometry in `frame`, positions against
+// the level's size, window sizes at `LucasKanade::new`, sum bounds proven in `lk::template`
+// and `tests/lk_core.rs`), so they index directly and use plain arithmetic; checked
+// operations there would cost a compare per sample. The indexing and arithmetic lints are off
+// for these two modules only.
+#[cfg_attr(
+    not(test),
+    allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)
+)]
 pub mod lk;
+#[cfg_attr(
+    not(test),
+    allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)
+)]
 pub mod pyramid;
 pub mod q16;
 pub mod track;

@@ -43,12 +43,15 @@ const WRONG_NODES: usize = 15;
 /// has no forward-backward check: after a scene cut a few nodes converge on a wrong match).
 const FEW_NODES: usize = 60;
 
+/// A scene id and a position in its reference view, or a shift of it.
+type ScenePoint = (u64, (f32, f32));
+
 /// A frame, and how the scene it shows relates to the other frames of its sequence.
 struct Shot {
     frame: Frame,
     /// The scene (`Some(id)`), shifted by this much from its reference view; `None` when the
     /// frame shows nothing that moves with any scene (flat, noise).
-    truth: Option<(u64, (f32, f32))>,
+    truth: Option<ScenePoint>,
 }
 
 /// The textured scene `seed` shifted by `shift`, lit by `lighting`, noise draw `index`.
@@ -152,7 +155,7 @@ fn run(label: &str, shots: &[Shot]) -> Vec<Outcome> {
     eprintln!("{label} frame 0: {} tracks", report.live);
     assert!(dense.push(first.frame.clone()).unwrap().is_none());
     // Where each live track's scene point is in its scene's reference view.
-    let mut origins: Vec<(u32, Option<(u64, (f32, f32))>)> = tracker
+    let mut origins: Vec<(u32, Option<ScenePoint>)> = tracker
         .tracks()
         .iter()
         .map(|t| (t.id, origin(t, first.truth)))
@@ -245,7 +248,7 @@ fn run(label: &str, shots: &[Shot]) -> Vec<Outcome> {
 }
 
 /// Where the scene point under `track` is in its scene's reference view.
-fn origin(track: &Track, truth: Option<(u64, (f32, f32))>) -> Option<(u64, (f32, f32))> {
+fn origin(track: &Track, truth: Option<ScenePoint>) -> Option<ScenePoint> {
     let (seed, (sx, sy)) = truth?;
     let (x, y) = track.position.to_f32();
     Some((seed, (x - sx, y - sy)))

@@ -20,7 +20,8 @@
 // Panics stay out of the library: no unwrap, expect, panic, todo, unimplemented or
 // unreachable, no indexing or slicing that can go out of bounds, and no integer arithmetic
 // that can overflow (checked, saturating or wrapping operations say what happens instead).
-// CI runs clippy with `-D warnings`. Tests may panic.
+// Narrowing `as` casts are flagged too (`try_from`, or an allow where `as` saturating is the
+// point). CI runs clippy with `-D warnings`. Tests may panic.
 #![cfg_attr(
     not(test),
     warn(
@@ -31,7 +32,8 @@
         clippy::unimplemented,
         clippy::unreachable,
         clippy::indexing_slicing,
-        clippy::arithmetic_side_effects
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
     )
 )]
 
@@ -45,15 +47,24 @@ pub mod frame;
 // the level's size, window sizes at `LucasKanade::new`, sum bounds proven in `lk::template`
 // and `tests/lk_core.rs`), so they index directly and use plain arithmetic; checked
 // operations there would cost a compare per sample. The indexing and arithmetic lints are off
-// for these two modules only.
+// for these two modules only, and so is the narrowing-cast lint, since their fixed-point
+// conversions narrow values whose range the same proofs bound.
 #[cfg_attr(
     not(test),
-    allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)
+    allow(
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
+    )
 )]
 pub mod lk;
 #[cfg_attr(
     not(test),
-    allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)
+    allow(
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
+    )
 )]
 pub mod pyramid;
 pub mod q16;

@@ -104,7 +104,7 @@ fn median(values: &mut [i32]) -> i32 {
     }
     let lower = values.get(middle.wrapping_sub(1)).copied().unwrap_or(upper);
     // The mean of two i32 values is an i32.
-    (i64::from(lower).saturating_add(i64::from(upper)) / 2) as i32
+    i32::try_from(i64::from(lower).saturating_add(i64::from(upper)) / 2).unwrap_or(upper)
 }
 
 #[cfg(test)]

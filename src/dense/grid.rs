@@ -546,7 +546,8 @@ impl DenseFlow {
         scratch: &mut [i16],
     ) -> Result<GridNode, DenseError> {
         // Centres are below MAX_DIMENSION = 4096, so the Q16 conversion is exact.
-        let start = Point::from_bits((x as i32) << 16, (y as i32) << 16);
+        let q16 = |v: usize| i32::try_from(v).map_or(i32::MAX, |v| v.saturating_mul(1 << 16));
+        let start = Point::from_bits(q16(x), q16(y));
         let track = self
             .lk
             .track_point(prev, next, start, None, scratch)

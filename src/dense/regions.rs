@@ -229,7 +229,10 @@ impl Region {
         let (x, w) = inset_span(x, w, inset, layout.cell());
         let (y, h) = inset_span(y, h, inset, layout.cell());
         // A mean of Q16 values is within their range.
-        let mean = |sum: i64| Q16::from_bits(sum.checked_div(self.flows).unwrap_or(0) as i32);
+        let mean = |sum: i64| {
+            let mean = sum.checked_div(self.flows).unwrap_or(0);
+            Q16::from_bits(i32::try_from(mean).unwrap_or_default())
+        };
         MotionBox {
             x: to_u16(x),
             y: to_u16(y),
@@ -290,7 +293,7 @@ fn push(unvisited: &mut [u32], stack: &mut [u32], top: &mut usize, index: usize)
     set(unvisited, index, false);
     if let Some(slot) = stack.get_mut(*top) {
         // Node indices are below the grid's length, itself far below 2^32 for 4096 px frames.
-        *slot = index as u32;
+        *slot = u32::try_from(index).unwrap_or(u32::MAX);
         *top = top.saturating_add(1);
     }
 }

@@ -411,7 +411,7 @@ impl ExclusionMask {
             return None;
         }
         // Both are in 0..size, and size >> shift < 64.
-        let cell = |v: i64| ((v as usize) >> self.shift).min(MASK_CELLS - 1);
+        let cell = |v: i64| (usize::try_from(v).unwrap_or(0) >> self.shift).min(MASK_CELLS - 1);
         Some((cell(lo), cell(hi)))
     }
 }

@@ -206,6 +206,7 @@ fn block_reach(block: usize) -> Option<usize> {
 fn quality_q16(level: f32) -> Option<u64> {
     if (0.0..=1.0).contains(&level) {
         // In 0.0..=65536.5: the cast is exact after rounding.
+        #[allow(clippy::cast_possible_truncation)]
         Some((level * 65536.0 + 0.5) as u64)
     } else {
         None
@@ -302,7 +303,7 @@ fn space_out(
         ) {
             *slot = corner;
             *link = *head;
-            *head = kept as i32;
+            *head = i32::try_from(kept).unwrap_or(-1);
             kept = kept.saturating_add(1);
         }
     }
@@ -525,8 +526,12 @@ struct Tensor {
 
 // Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
 // once in `detect`, and the sums are bounded as the module documentation shows; see the
-// crate's note on hot loops.
-#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+// crate's note on hot loops. The score's root is below 2^27, so it fits a u32.
+#[allow(
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::cast_possible_truncation
+)]
 impl Tensor {
     const ZERO: Tensor = Tensor {
         xx: 0,

@@ -498,7 +498,10 @@ impl Ransac {
         // Both logarithms are negative; a zero inlier share gives ln(1) = 0.
         let needed = libm::ceilf(self.log_miss / log_fail);
         if log_fail < 0.0 && needed < f32::from(max) {
-            needed as u16
+            // Below u16::MAX here, and `as` saturates anyway.
+            #[allow(clippy::cast_possible_truncation)]
+            let needed = needed as u16;
+            needed
         } else {
             max
         }
@@ -511,6 +514,7 @@ impl Ransac {
         let relative = rms / self.params.threshold;
         let fit = (1.0 - relative * relative).max(0.0);
         // `as` saturates, and maps NaN to 0.
+        #[allow(clippy::cast_possible_truncation)]
         let quality = (255.0 * share * support * fit + 0.5) as u8;
         quality.max(1)
     }

@@ -96,13 +96,16 @@ impl Moments {
 // `i < SAMPLES = 49`: the sample's column and row are small.
 #[allow(clippy::arithmetic_side_effects)]
 fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
-    let half = (SIDE / 2) as i32;
+    // SIDE is 7.
+    #[allow(clippy::cast_possible_truncation)]
+    const HALF: i32 = (SIDE / 2) as i32;
     // Every sample shares the position's fraction, so the weights are computed once.
     let (x, y) = (position.x.to_bits(), position.y.to_bits());
     let weights = Bilinear::new(x, y);
     let (x0, y0) = (x >> 16, y >> 16);
     core::array::from_fn(|i| {
-        let (col, row) = ((i % SIDE) as i32 - half, (i / SIDE) as i32 - half);
+        let at = |v: usize| i32::try_from(v).unwrap_or(0) - HALF;
+        let (col, row) = (at(i % SIDE), at(i / SIDE));
         let sx = x0.saturating_add(col << SPACING_SHIFT);
         let sy = y0.saturating_add(row << SPACING_SHIFT);
         weights.sample(frame, sx, sy)
@@ -136,7 +139,7 @@ impl Bilinear {
         let bottom = px(x, y1) * (256 - self.fx) + px(x1, y1) * self.fx;
         let value = top * (256 - self.fy) + bottom * self.fy;
         // value < 2^24: grey x 2^16, rounded to grey x 16.
-        ((value + (1 << 11)) >> 12) as u16
+        u16::try_from((value + (1 << 11)) >> 12).unwrap_or(u16::MAX)
     }
 }
 

@@ -51,7 +51,6 @@ const fn check_geometry(
     if stride < width {
         return Err(ImageError::StrideTooSmall);
     }
-    // Cannot overflow: height <= 4096 and stride < len + 1 is checked next.
     if stride > len {
         // A stride longer than the whole buffer only fits a single row.
         if height == 1 && width <= len {
@@ -59,11 +58,14 @@ const fn check_geometry(
         }
         return Err(ImageError::BufferTooSmall);
     }
-    let needed = stride * (height - 1) + width;
-    if needed > len {
-        return Err(ImageError::BufferTooSmall);
+    let needed = match stride.checked_mul(height.saturating_sub(1)) {
+        Some(rows) => rows.checked_add(width),
+        None => None,
+    };
+    match needed {
+        Some(needed) if needed <= len => Ok(needed),
+        _ => Err(ImageError::BufferTooSmall),
     }
-    Ok(needed)
 }
 
 /// A borrowed 8-bit grey image: `height` rows of `width` pixels, rows `stride` bytes apart.
@@ -162,8 +164,11 @@ impl<'a> ImageView<'a> {
         if y >= self.height {
             return &[];
         }
-        let start = y * self.stride;
-        self.data.get(start..start + self.width).unwrap_or(&[])
+        // y < height and the geometry was checked: neither operation can overflow, and a
+        // failure gives the empty row rather than a panic.
+        let start = y.saturating_mul(self.stride);
+        let end = start.saturating_add(self.width);
+        self.data.get(start..end).unwrap_or(&[])
     }
 
     /// The pixels of the `cols` x `rows` block whose top-left pixel is (`x`, `y`), from that
@@ -172,12 +177,16 @@ impl<'a> ImageView<'a> {
     #[inline]
     pub(crate) fn block(&self, x: isize, y: isize, cols: usize, rows: usize) -> Option<&'a [u8]> {
         let (x, y) = (usize::try_from(x).ok()?, usize::try_from(y).ok()?);
-        if x + cols > self.width || y + rows > self.height || rows == 0 {
+        if x.checked_add(cols)? > self.width || y.checked_add(rows)? > self.height || rows == 0 {
             return None;
         }
-        let start = y * self.stride + x;
-        self.data
-            .get(start..start + (rows - 1) * self.stride + cols)
+        // Inside the checked geometry: these cannot overflow.
+        let start = y.checked_mul(self.stride)?.checked_add(x)?;
+        let span = rows
+            .checked_sub(1)?
+            .checked_mul(self.stride)?
+            .checked_add(cols)?;
+        self.data.get(start..start.checked_add(span)?)
     }
 
     /// The pixel at (`x`, `y`), or `None` outside the image.
@@ -227,7 +236,7 @@ impl defmt::Format for ImageView<'_> {
 /// assert_eq!(FRAME.len(), 19_200);
 /// ```
 pub const fn frame_len(width: usize, height: usize) -> usize {
-    width * height
+    width.saturating_mul(height)
 }
 
 #[cfg(test)]

@@ -17,6 +17,11 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// Panics stay out of the library: no unwrap, expect, panic, todo, unimplemented or
+// unreachable, no indexing or slicing that can go out of bounds, and no integer arithmetic
+// that can overflow (checked, saturating or wrapping operations say what happens instead).
+// Narrowing `as` casts are flagged too (`try_from`, or an allow where `as` saturating is the
+// point). CI runs clippy with `-D warnings`. Tests may panic.
 #![cfg_attr(
     not(test),
     warn(
@@ -24,7 +29,11 @@
         clippy::expect_used,
         clippy::panic,
         clippy::todo,
-        clippy::unimplemented
+        clippy::unimplemented,
+        clippy::unreachable,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
     )
 )]
 
@@ -32,7 +41,31 @@ pub mod dense;
 pub mod detect;
 pub mod ego;
 pub mod frame;
+// The LK core and the pyramid are hot per-pixel loops: window sums, bilinear sampling and the
+// pyramid filter index pixel rows and multiply samples millions of times a frame. Their
+// indices and sums are validated once up front (frame geometry in `frame`, positions against
+// the level's size, window sizes at `LucasKanade::new`, sum bounds proven in `lk::template`
+// and `tests/lk_core.rs`), so they index directly and use plain arithmetic; checked
+// operations there would cost a compare per sample. The indexing and arithmetic lints are off
+// for these two modules only, and so is the narrowing-cast lint, since their fixed-point
+// conversions narrow values whose range the same proofs bound.
+#[cfg_attr(
+    not(test),
+    allow(
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
+    )
+)]
 pub mod lk;
+#[cfg_attr(
+    not(test),
+    allow(
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation
+    )
+)]
 pub mod pyramid;
 pub mod q16;
 pub mod track;

@@ -129,7 +129,9 @@ impl DominantMotion {
             .iter()
             .map(|(u, v, flow)| model.residual_sq(u, v, flow))
             .filter(|&r2| r2 < params.inlier_radius_sq())
-            .fold((0usize, 0.0f32), |(n, sum), r2| (n + 1, sum + r2));
+            .fold((0usize, 0.0f32), |(n, sum), r2| {
+                (n.saturating_add(1), sum + r2)
+            });
         let spread = if inliers > 0 {
             sqrt(sum_sq / inliers as f32)
         } else {
@@ -215,7 +217,8 @@ fn sqrt(x: f32) -> f32 {
     if x.is_nan() || x <= 0.0 {
         return 0.0;
     }
-    let mut r = f32::from_bits((x.to_bits() >> 1) + 0x1fc0_0000);
+    // A positive finite float's bits are below 2^31: the sum stays below 2^32.
+    let mut r = f32::from_bits((x.to_bits() >> 1).wrapping_add(0x1fc0_0000));
     for _ in 0..5 {
         r = 0.5 * (r + x / r);
     }
@@ -284,11 +287,12 @@ impl<'a> Measured<'a> {
         // The smallest value with at least half the values at or below it.
         let wanted = count.div_ceil(2);
         while lo < hi {
-            let mid = lo + (hi - lo) / 2;
+            // lo < hi, both i32 values widened to i64: no overflow.
+            let mid = lo.saturating_add(hi.saturating_sub(lo) / 2);
             if values().filter(|&v| v <= mid).count() >= wanted {
                 hi = mid;
             } else {
-                lo = mid + 1;
+                lo = mid.saturating_add(1);
             }
         }
         lo as f32 / 65536.0

@@ -36,9 +36,9 @@ pub fn fill_invalid(layout: &GridLayout, nodes: &mut [GridNode], passes: u8) -> 
     let nodes = nodes.get_mut(..len).unwrap_or(&mut []);
     // Nodes filled by an earlier call count as earlier passes.
     let done = nodes.iter().map(|n| n.fill_pass).max().unwrap_or(0);
-    let mut filled = 0;
+    let mut filled = 0usize;
     for pass in (1..=passes).map(|p| done.saturating_add(p)) {
-        let mut filled_now = 0;
+        let mut filled_now = 0usize;
         for index in 0..nodes.len() {
             let empty = nodes.get(index).is_some_and(|n| !n.has_flow());
             if !empty {
@@ -51,14 +51,14 @@ pub fn fill_invalid(layout: &GridLayout, nodes: &mut [GridNode], passes: u8) -> 
                         status: NodeStatus::Filled,
                         fill_pass: pass,
                     };
-                    filled_now += 1;
+                    filled_now = filled_now.saturating_add(1);
                 }
             }
         }
         if filled_now == 0 {
             break;
         }
-        filled += filled_now;
+        filled = filled.saturating_add(filled_now);
     }
     filled
 }
@@ -73,7 +73,7 @@ fn neighbour_median(
 ) -> Option<Point> {
     let mut xs = [0i32; 8];
     let mut ys = [0i32; 8];
-    let mut count = 0;
+    let mut count = 0usize;
     for offset in NEIGHBOURS {
         let neighbour = layout.neighbour(index, offset).and_then(|i| nodes.get(i));
         let Some(n) = neighbour else { continue };
@@ -82,7 +82,7 @@ fn neighbour_median(
         if let (true, Some(x), Some(y)) = (known, xs.get_mut(count), ys.get_mut(count)) {
             *x = n.flow.x.to_bits();
             *y = n.flow.y.to_bits();
-            count += 1;
+            count = count.saturating_add(1);
         }
     }
     if count < MIN_SOURCES {
@@ -103,7 +103,8 @@ fn median(values: &mut [i32]) -> i32 {
         return upper;
     }
     let lower = values.get(middle.wrapping_sub(1)).copied().unwrap_or(upper);
-    ((i64::from(lower) + i64::from(upper)) / 2) as i32
+    // The mean of two i32 values is an i32.
+    i32::try_from(i64::from(lower).saturating_add(i64::from(upper)) / 2).unwrap_or(upper)
 }
 
 #[cfg(test)]

@@ -35,7 +35,15 @@ pub const fn grid_side(size: usize, cell: usize) -> usize {
     if cell == 0 || size <= cell / 2 {
         return 0;
     }
-    (size - 1 - cell / 2) / cell + 1
+    // cell >= 1 and size > cell / 2: no underflow, no division by zero.
+    match size
+        .saturating_sub(1)
+        .saturating_sub(cell / 2)
+        .checked_div(cell)
+    {
+        Some(before_last) => before_last.saturating_add(1),
+        None => 0,
+    }
 }
 
 /// Nodes of the grid over a `width` x `height` frame with `cell` px cells: the length of the
@@ -48,7 +56,7 @@ pub const fn grid_side(size: usize, cell: usize) -> usize {
 /// assert_eq!(grid_len(320, 240, 8), 1200);
 /// ```
 pub const fn grid_len(width: usize, height: usize, cell: usize) -> usize {
-    grid_side(width, cell) * grid_side(height, cell)
+    grid_side(width, cell).saturating_mul(grid_side(height, cell))
 }
 
 /// The geometry of a grid: frame size, cell size, and the nodes' columns and rows.
@@ -154,7 +162,7 @@ impl GridLayout {
     /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().len(), 72);
     /// ```
     pub const fn len(&self) -> usize {
-        self.cols * self.rows
+        self.cols.saturating_mul(self.rows)
     }
 
     /// True when the grid has no node (never, for a layout [`GridLayout::new`] accepted).
@@ -175,8 +183,8 @@ impl GridLayout {
     /// ```
     pub const fn centre(&self, col: usize, row: usize) -> (usize, usize) {
         (
-            self.cell / 2 + col * self.cell,
-            self.cell / 2 + row * self.cell,
+            (self.cell / 2).saturating_add(col.saturating_mul(self.cell)),
+            (self.cell / 2).saturating_add(row.saturating_mul(self.cell)),
         )
     }
 
@@ -190,7 +198,8 @@ impl GridLayout {
     /// ```
     pub const fn index(&self, col: usize, row: usize) -> Option<usize> {
         if col < self.cols && row < self.rows {
-            Some(row * self.cols + col)
+            // Below cols x rows, the grid's length.
+            Some(row.saturating_mul(self.cols).saturating_add(col))
         } else {
             None
         }
@@ -204,8 +213,10 @@ impl GridLayout {
     /// ```
     pub const fn node(&self, index: usize) -> (usize, usize) {
         // `cols` is at least 1 for an accepted layout; the guard keeps the division panic-free.
-        let cols = if self.cols == 0 { 1 } else { self.cols };
-        (index % cols, index / cols)
+        match (index.checked_rem(self.cols), index.checked_div(self.cols)) {
+            (Some(col), Some(row)) => (col, row),
+            _ => (0, 0),
+        }
     }
 
     /// The index of the node `offset` (columns, rows) away from node `index`; `None` off the
@@ -243,10 +254,11 @@ impl GridLayout {
         c1: usize,
         r1: usize,
     ) -> (usize, usize, usize, usize) {
-        let x = (c0 * self.cell).min(self.width);
-        let y = (r0 * self.cell).min(self.height);
-        let right = ((c1 + 1) * self.cell).min(self.width);
-        let bottom = ((r1 + 1) * self.cell).min(self.height);
+        let edge = |k: usize, size: usize| k.saturating_mul(self.cell).min(size);
+        let x = edge(c0, self.width);
+        let y = edge(r0, self.height);
+        let right = edge(c1.saturating_add(1), self.width);
+        let bottom = edge(r1.saturating_add(1), self.height);
         (x, y, right.saturating_sub(x), bottom.saturating_sub(y))
     }
 }
@@ -479,11 +491,11 @@ impl DenseFlow {
         scratch: &mut [i16],
     ) -> Result<DenseSummary, DenseError> {
         let layout = self.check(prev, next, nodes.len(), scratch.len())?;
-        let mut tracked = 0;
+        let mut tracked = 0usize;
         for (index, node) in nodes.iter_mut().take(layout.len()).enumerate() {
             let (col, row) = layout.node(index);
             *node = self.track_node(prev, next, layout.centre(col, row), scratch)?;
-            tracked += usize::from(node.is_valid());
+            tracked = tracked.saturating_add(usize::from(node.is_valid()));
         }
         let filled = fill_invalid(&layout, nodes, self.params.fill_passes);
         Ok(DenseSummary {
@@ -513,7 +525,7 @@ impl DenseFlow {
             .min(prev.max_level())
             .min(next.max_level());
         let smallest = level_size(base.width(), top).min(level_size(base.height(), top));
-        if smallest < self.params.lk.window / 2 + 1 {
+        if smallest <= self.params.lk.window / 2 {
             return Err(DenseError::FrameTooSmall);
         }
         if nodes < layout.len() {
@@ -534,7 +546,8 @@ impl DenseFlow {
         scratch: &mut [i16],
     ) -> Result<GridNode, DenseError> {
         // Centres are below MAX_DIMENSION = 4096, so the Q16 conversion is exact.
-        let start = Point::from_bits((x as i32) << 16, (y as i32) << 16);
+        let q16 = |v: usize| i32::try_from(v).map_or(i32::MAX, |v| v.saturating_mul(1 << 16));
+        let start = Point::from_bits(q16(x), q16(y));
         let track = self
             .lk
             .track_point(prev, next, start, None, scratch)

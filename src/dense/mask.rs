@@ -172,10 +172,10 @@ fn check(layout: &GridLayout, mask: &[u32], temp: &[u32]) -> Result<(), DenseErr
 /// `dst(p) = OR over b of src(p - b)`, nodes beyond the grid clear.
 fn dilate(layout: &GridLayout, src: &[u32], dst: &mut [u32], structure: Structure) {
     for index in 0..layout.len() {
-        let hit = structure
-            .offsets()
-            .iter()
-            .any(|&(dc, dr)| neighbour(layout, src, index, (-dc, -dr)).unwrap_or(false));
+        let hit = structure.offsets().iter().any(|&(dc, dr)| {
+            let mirrored = (dc.saturating_neg(), dr.saturating_neg());
+            neighbour(layout, src, index, mirrored).unwrap_or(false)
+        });
         set(dst, index, hit);
     }
 }

@@ -72,7 +72,7 @@ pub trait CameraMotion {
 /// assert_eq!(motion_scratch_len(160, 120, 8), 10 + 300);
 /// ```
 pub const fn motion_scratch_len(width: usize, height: usize, cell: usize) -> usize {
-    mask_words(width, height, cell) + grid_len(width, height, cell)
+    mask_words(width, height, cell).saturating_add(grid_len(width, height, cell))
 }
 
 /// Motion-detection parameters.
@@ -191,11 +191,11 @@ impl MotionDetector {
             return Err(DenseError::NodesTooShort);
         }
         let limit = self.params.threshold * self.params.threshold;
-        let mut moving = 0;
+        let mut moving = 0usize;
         for (index, node) in nodes.iter().take(layout.len()).enumerate() {
             let moves = self.counts(node) && self.residual_sq(layout, index, node, camera) > limit;
             set(mask, index, moves);
-            moving += usize::from(moves);
+            moving = moving.saturating_add(usize::from(moves));
         }
         Ok(moving)
     }
@@ -203,6 +203,13 @@ impl MotionDetector {
     /// Marks the moving nodes, cleans the mask, and writes the boxes of its regions into
     /// `boxes`, largest first. `mask` ([`mask_words`] words) holds the cleaned mask afterwards;
     /// `scratch` is [`motion_scratch_len`] words. See the module example.
+    ///
+    /// No box is reported, and the mask is cleared, when the nodes cannot tell an object from
+    /// the camera: when fewer than a quarter of the grid's nodes take part (a dark, blown-out
+    /// or featureless frame, where the few measured nodes are as likely mismeasured as moving),
+    /// or when most of those that take part move (the camera motion describes nothing: the
+    /// frames do not show one scene). A box says "this moves unlike the rest", and there is no
+    /// rest to compare with.
     pub fn detect(
         &self,
         layout: &GridLayout,
@@ -213,11 +220,20 @@ impl MotionDetector {
         boxes: &mut [MotionBox],
     ) -> Result<MotionSummary, DenseError> {
         let words = words_for(layout.len());
-        if scratch.len() < words + layout.len() {
+        if scratch.len() < words.saturating_add(layout.len()) {
             return Err(DenseError::MotionScratchTooShort);
         }
         let (temp, stack) = scratch.split_at_mut(words);
-        self.mark(layout, nodes, camera, mask)?;
+        let moving = self.mark(layout, nodes, camera, mask)?;
+        let taking_part = nodes
+            .iter()
+            .take(layout.len())
+            .filter(|n| self.counts(n))
+            .count();
+        if taking_part < layout.len().div_ceil(4) || moving > taking_part / 2 {
+            mask.iter_mut().for_each(|w| *w = 0);
+            return Ok(MotionSummary::default());
+        }
         if let Some(structure) = self.params.close {
             close(layout, mask, temp, structure)?;
         }
@@ -311,6 +327,51 @@ mod tests {
             ),
             Err(DenseError::NodesTooShort)
         );
+    }
+
+    #[test]
+    fn no_boxes_without_a_static_majority_or_with_few_measured_nodes() {
+        // An 8 x 8 grid of 64 nodes, a quarter of which is 16.
+        let layout = GridLayout::new(64, 64, 8).unwrap();
+        let detector = MotionDetector::new(MotionParams::default()).unwrap();
+        let camera = DominantMotion::ZERO;
+        let boxes = |moving: &dyn Fn(usize) -> bool, still: &dyn Fn(usize) -> bool| {
+            let nodes: [GridNode; 64] = core::array::from_fn(|i| {
+                if moving(i) {
+                    GridNode::tracked(Point::from_f32(4.0, 0.0))
+                } else if still(i) {
+                    GridNode::tracked(Point::default())
+                } else {
+                    GridNode::EMPTY
+                }
+            });
+            let mut mask = [0u32; 2];
+            let mut scratch = [0u32; motion_scratch_len(64, 64, 8)];
+            let mut boxes = [MotionBox::default(); 4];
+            let summary = detector
+                .detect(
+                    &layout,
+                    &nodes,
+                    &camera,
+                    &mut mask,
+                    &mut scratch,
+                    &mut boxes,
+                )
+                .unwrap();
+            (summary.boxes, mask)
+        };
+        // A 3 x 3 block moves.
+        let block = |i: usize| (2..5).contains(&(i % 8)) && (2..5).contains(&(i / 8));
+        assert_eq!(boxes(&block, &|_| true).0, 1);
+        // With 9 still nodes the block is half of what is measured: one box; with 8 the
+        // moving nodes are the majority: none, and the mask is cleared.
+        assert_eq!(boxes(&block, &|i| i < 9).0, 1);
+        assert_eq!(boxes(&block, &|i| i < 8), (0, [0, 0]));
+        // Three moving nodes in a row and 13 still ones: 16 measured, one box; with 12 still
+        // ones, 15 measured are too few.
+        let row = |i: usize| (18..21).contains(&i);
+        assert_eq!(boxes(&row, &|i| i < 13).0, 1);
+        assert_eq!(boxes(&row, &|i| i < 12).0, 0);
     }
 
     #[test]

@@ -50,7 +50,8 @@ impl MotionBox {
     /// assert_eq!(MotionBox { w: 3, h: 5, ..MotionBox::default() }.area(), 15);
     /// ```
     pub fn area(&self) -> u32 {
-        u32::from(self.w) * u32::from(self.h)
+        // Below 2^32: both factors are below 2^16.
+        u32::from(self.w).saturating_mul(u32::from(self.h))
     }
 
     /// The box moved by its mean flow (rounded to whole pixels) and clipped to a `width` x
@@ -80,9 +81,12 @@ impl MotionBox {
 fn shift_span(start: u16, len: u16, shift: Q16, size: usize) -> (u16, u16) {
     let shift = shift.saturating_round().to_num::<i32>();
     let size = i32::try_from(size).unwrap_or(i32::MAX);
-    let lo = (i32::from(start) + shift).clamp(0, size);
-    let hi = (i32::from(start) + i32::from(len) + shift).clamp(lo, size);
-    (to_u16(lo), to_u16(hi - lo))
+    let lo = i32::from(start).saturating_add(shift).clamp(0, size);
+    let hi = i32::from(start)
+        .saturating_add(i32::from(len))
+        .saturating_add(shift)
+        .clamp(lo, size);
+    (to_u16(lo), to_u16(hi.saturating_sub(lo)))
 }
 
 fn to_u16(v: impl TryInto<u16>) -> u16 {
@@ -174,7 +178,7 @@ pub fn find_boxes(
         }
         let region = flood(layout, nodes, unvisited, stack, seed);
         if region.nodes >= rules.min_nodes {
-            found.regions += 1;
+            found.regions = found.regions.saturating_add(1);
             let found_box = region.to_box(layout, rules.inset);
             found.boxes = keep_largest(boxes, found.boxes, found_box);
         }
@@ -207,9 +211,16 @@ impl Region {
         self.rows = (self.rows.0.min(row), self.rows.1.max(row));
         self.nodes = self.nodes.saturating_add(1);
         if let Some(n) = node.filter(|n| n.has_flow()) {
-            self.flow_sum.0 += i64::from(n.flow.x.to_bits());
-            self.flow_sum.1 += i64::from(n.flow.y.to_bits());
-            self.flows += 1;
+            // At most 2^24 nodes of i32 flows: the sums fit an i64.
+            self.flow_sum.0 = self
+                .flow_sum
+                .0
+                .saturating_add(i64::from(n.flow.x.to_bits()));
+            self.flow_sum.1 = self
+                .flow_sum
+                .1
+                .saturating_add(i64::from(n.flow.y.to_bits()));
+            self.flows = self.flows.saturating_add(1);
         }
     }
 
@@ -218,7 +229,10 @@ impl Region {
         let (x, w) = inset_span(x, w, inset, layout.cell());
         let (y, h) = inset_span(y, h, inset, layout.cell());
         // A mean of Q16 values is within their range.
-        let mean = |sum: i64| Q16::from_bits((sum / self.flows.max(1)) as i32);
+        let mean = |sum: i64| {
+            let mean = sum.checked_div(self.flows).unwrap_or(0);
+            Q16::from_bits(i32::try_from(mean).unwrap_or_default())
+        };
         MotionBox {
             x: to_u16(x),
             y: to_u16(y),
@@ -237,7 +251,11 @@ impl Region {
 /// a whole cell.
 fn inset_span(start: usize, len: usize, inset: usize, keep: usize) -> (usize, usize) {
     let cut = inset.min(len.saturating_sub(keep) / 2);
-    (start + cut, len - 2 * cut)
+    // cut <= len / 2.
+    (
+        start.saturating_add(cut),
+        len.saturating_sub(cut.saturating_mul(2)),
+    )
 }
 
 /// Flood-fills the region of `seed` out of `unvisited`.
@@ -253,7 +271,7 @@ fn flood(
     let mut top = 0;
     push(unvisited, stack, &mut top, seed);
     while top > 0 {
-        top -= 1;
+        top = top.saturating_sub(1);
         let Some(index) = stack.get(top).map(|&i| i as usize) else {
             break;
         };
@@ -275,8 +293,8 @@ fn push(unvisited: &mut [u32], stack: &mut [u32], top: &mut usize, index: usize)
     set(unvisited, index, false);
     if let Some(slot) = stack.get_mut(*top) {
         // Node indices are below the grid's length, itself far below 2^32 for 4096 px frames.
-        *slot = index as u32;
-        *top += 1;
+        *slot = u32::try_from(index).unwrap_or(u32::MAX);
+        *top = top.saturating_add(1);
     }
 }
 
@@ -287,7 +305,7 @@ fn keep_largest(boxes: &mut [MotionBox], len: usize, new: MotionBox) -> usize {
     let at = boxes
         .get(..len)
         .map_or(0, |kept| kept.partition_point(|b| b.nodes >= new.nodes));
-    let grown = (len + 1).min(boxes.len());
+    let grown = len.saturating_add(1).min(boxes.len());
     // Empty when the new box is smaller than every kept one and there is no room left.
     if let Some(tail) = boxes.get_mut(at..grown).filter(|t| !t.is_empty()) {
         tail.rotate_right(1);

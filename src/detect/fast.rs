@@ -40,7 +40,7 @@ pub const BORDER: usize = 3;
 /// assert_eq!(scratch_len(160), 480);
 /// ```
 pub const fn scratch_len(width: usize) -> usize {
-    3 * width
+    width.saturating_mul(3)
 }
 
 /// FAST-9 detector settings.
@@ -139,6 +139,9 @@ impl Fast {
     ///
     /// Ranks are computed for `area` grown by one pixel (so that corners at the region's edge
     /// are compared with their neighbours outside it) into three rolling rows.
+    // Per-pixel row loop: indices are bounded by the region, clipped to the frame once in
+    // `detect`; see the crate's note on hot loops.
+    #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
     fn detect_nonmax(
         &self,
         image: &ImageView<'_>,
@@ -175,6 +178,9 @@ impl Fast {
 
 /// Ranks (score + 1, or 0 for "not a corner at `threshold`") of row `y`, columns
 /// `x0..x0 + out.len()`.
+// Per-pixel row loop: indices are bounded by the region, clipped to the frame once in
+// `detect`; see the crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 fn rank_row(image: &ImageView<'_>, y: usize, x0: usize, threshold: u8, out: &mut [u8]) {
     out.fill(0);
     let x1 = x0 + out.len();
@@ -188,6 +194,9 @@ fn rank_row(image: &ImageView<'_>, y: usize, x0: usize, threshold: u8, out: &mut
 /// Offers the strict local maxima of `middle` (row `y`) that lie in `area` to `sink`.
 ///
 /// The three rows hold ranks of columns `x0..`; neighbours beyond their ends count as 0.
+// Per-pixel row loop: indices are bounded by the region, clipped to the frame once in
+// `detect`; see the crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 fn suppress_row(
     above: &[u8],
     middle: &[u8],
@@ -248,6 +257,9 @@ impl Sink<'_, '_> {
 /// The seven rows `y - 3 ..= y + 3` around a pixel row.
 struct Rows<'a>([&'a [u8]; 7]);
 
+// Per-pixel row loop: indices are bounded by the region, clipped to the frame once in
+// `detect`; see the crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 impl<'a> Rows<'a> {
     /// The rows around row `y`; rows off the frame are empty, which makes every pixel of row
     /// `y` a non-corner.
@@ -389,6 +401,8 @@ const ALL_ARCS: u32 = 0xFFFF;
 ///
 /// Detection passes only the arcs that clear the threshold, usually one to four, so this costs
 /// a few dozen compares instead of the 144 of all arcs.
+// `k + i` is masked to 0..16 and `rest` is non-zero where it is decremented.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 fn best_arc_min(v: &[u8; 16], starts: u32) -> u8 {
     let mut best = 0;
     let mut rest = starts & ALL_ARCS;

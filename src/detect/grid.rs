@@ -52,8 +52,8 @@ impl Grid {
             return None;
         }
         // x < width <= 4096 and cols <= 32 in practice; checked math keeps absurd inputs safe.
-        let cx = x.checked_mul(self.cols)? / width;
-        let cy = y.checked_mul(self.rows)? / height;
+        let cx = x.checked_mul(self.cols)?.checked_div(width)?;
+        let cy = y.checked_mul(self.rows)?.checked_div(height)?;
         Some((cx, cy))
     }
 
@@ -108,7 +108,7 @@ impl Grid {
         let mut used = [0u8; MAX_CELLS_PER_SIDE * MAX_CELLS_PER_SIDE];
         let index = |x: usize, y: usize| {
             self.cell_of(width, height, x, y)
-                .map(|(cx, cy)| cy * self.cols + cx)
+                .map(|(cx, cy)| cy.saturating_mul(self.cols).saturating_add(cx))
         };
         for track in tracks {
             if let Some(count) = point_pixel(track)
@@ -120,7 +120,7 @@ impl Grid {
         }
 
         sort_strongest_first(corners);
-        let mut kept = 0;
+        let mut kept = 0usize;
         for i in 0..corners.len() {
             let Some(&corner) = corners.get(i) else {
                 break;
@@ -135,10 +135,10 @@ impl Grid {
             if *count >= self.per_cell {
                 continue;
             }
-            *count += 1;
+            *count = count.saturating_add(1);
             if let Some(slot) = corners.get_mut(kept) {
                 *slot = corner;
-                kept += 1;
+                kept = kept.saturating_add(1);
             }
         }
         Ok(kept)

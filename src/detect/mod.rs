@@ -204,7 +204,10 @@ impl Region {
     /// assert!(!Region::new(0, 0, 2, 2).contains(2, 0));
     /// ```
     pub const fn contains(&self, x: usize, y: usize) -> bool {
-        x >= self.x && x - self.x < self.width && y >= self.y && y - self.y < self.height
+        x >= self.x
+            && x.saturating_sub(self.x) < self.width
+            && y >= self.y
+            && y.saturating_sub(self.y) < self.height
     }
 
     /// The part of the region inside a `width` x `height` frame shrunk by `border` pixels on
@@ -219,7 +222,7 @@ impl Region {
     pub const fn clip(&self, width: usize, height: usize, border: usize) -> Region {
         let (x0, x1) = clip_span(self.x, self.width, width, border);
         let (y0, y1) = clip_span(self.y, self.height, height, border);
-        Region::new(x0, y0, x1 - x0, y1 - y0)
+        Region::new(x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0))
     }
 
     /// The region grown by one pixel on every side, then clipped like [`Region::clip`].
@@ -235,12 +238,12 @@ impl Region {
 
     /// One past the rightmost column.
     const fn right(&self) -> usize {
-        self.x + self.width
+        self.x.saturating_add(self.width)
     }
 
     /// One past the bottom row.
     const fn bottom(&self) -> usize {
-        self.y + self.height
+        self.y.saturating_add(self.height)
     }
 }
 
@@ -302,9 +305,9 @@ impl ExclusionMask {
         // Frames are at most MAX_DIMENSION px, so the loop ends with a shift of at most 6.
         let w = min(width, MAX_DIMENSION).saturating_sub(1);
         let h = min(height, MAX_DIMENSION).saturating_sub(1);
-        let mut shift = 0;
+        let mut shift = 0u32;
         while (w >> shift) >= MASK_CELLS || (h >> shift) >= MASK_CELLS {
-            shift += 1;
+            shift = shift.saturating_add(1);
         }
         Self {
             rows: [0; MASK_CELLS],
@@ -355,14 +358,14 @@ impl ExclusionMask {
         let px = i64::from(point.x.to_bits() >> 16);
         let py = i64::from(point.y.to_bits() >> 16);
         let (Some((c0, c1)), Some((r0, r1))) = (
-            self.cell_span(px - r, px + r, self.width),
-            self.cell_span(py - r, py + r, self.height),
+            self.cell_span(px.saturating_sub(r), px.saturating_add(r), self.width),
+            self.cell_span(py.saturating_sub(r), py.saturating_add(r), self.height),
         ) else {
             return;
         };
         // c1 < 64, so the shifts stay in range.
-        let bits = (u64::MAX >> (63 - c1)) & (u64::MAX << c0);
-        for row in self.rows.iter_mut().take(r1 + 1).skip(r0) {
+        let bits = (u64::MAX >> 63usize.saturating_sub(c1)) & (u64::MAX << c0);
+        for row in self.rows.iter_mut().take(r1.saturating_add(1)).skip(r0) {
             *row |= bits;
         }
     }
@@ -408,7 +411,7 @@ impl ExclusionMask {
             return None;
         }
         // Both are in 0..size, and size >> shift < 64.
-        let cell = |v: i64| ((v as usize) >> self.shift).min(MASK_CELLS - 1);
+        let cell = |v: i64| (usize::try_from(v).unwrap_or(0) >> self.shift).min(MASK_CELLS - 1);
         Some((cell(lo), cell(hi)))
     }
 }
@@ -448,8 +451,8 @@ impl<'a> StrongestCorners<'a> {
         if !self.is_full() {
             if let Some(slot) = self.slots.get_mut(self.len) {
                 *slot = corner;
-                self.len += 1;
-                self.sift_up(self.len - 1);
+                self.sift_up(self.len);
+                self.len = self.len.saturating_add(1);
             }
         } else if let Some(weakest) = self.slots.first_mut() {
             if corner.is_stronger_than(weakest) {
@@ -476,8 +479,8 @@ impl<'a> StrongestCorners<'a> {
     }
 
     fn sift_up(&mut self, mut i: usize) {
-        while i > 0 {
-            let parent = (i - 1) / 2;
+        while let Some(before) = i.checked_sub(1) {
+            let parent = before / 2;
             if !self.weaker(i, parent) {
                 break;
             }
@@ -488,7 +491,9 @@ impl<'a> StrongestCorners<'a> {
 
     fn sift_down(&mut self, mut i: usize) {
         loop {
-            let (left, right) = (2 * i + 1, 2 * i + 2);
+            // i < len <= the slot count: no overflow.
+            let left = i.saturating_mul(2).saturating_add(1);
+            let right = left.saturating_add(1);
             let mut weakest = i;
             if left < self.len && self.weaker(left, weakest) {
                 weakest = left;

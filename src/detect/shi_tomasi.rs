@@ -63,8 +63,8 @@ const DISTANCE_GRID: usize = 16;
 /// assert_eq!(scratch_len(32, 500), 756);
 /// ```
 pub const fn scratch_len(width: usize, capacity: usize) -> usize {
-    let scan = 6 * width;
-    let distance = DISTANCE_GRID * DISTANCE_GRID + capacity;
+    let scan = width.saturating_mul(6);
+    let distance = (DISTANCE_GRID * DISTANCE_GRID).saturating_add(capacity);
     if scan > distance {
         scan
     } else {
@@ -148,7 +148,7 @@ impl ShiTomasi {
         if scratch.len() < scratch_len(image.width(), out.len()) {
             return Err(DetectError::ScratchTooSmall);
         }
-        let area = region.clip(image.width(), image.height(), reach + 1);
+        let area = region.clip(image.width(), image.height(), reach.saturating_add(1));
         if area.is_empty() || out.is_empty() {
             return Ok(0);
         }
@@ -206,6 +206,7 @@ fn block_reach(block: usize) -> Option<usize> {
 fn quality_q16(level: f32) -> Option<u64> {
     if (0.0..=1.0).contains(&level) {
         // In 0.0..=65536.5: the cast is exact after rounding.
+        #[allow(clippy::cast_possible_truncation)]
         Some((level * 65536.0 + 0.5) as u64)
     } else {
         None
@@ -218,7 +219,7 @@ fn above_quality(corners: &[Corner], quality: u64) -> usize {
         return 0;
     };
     // score < 2^27 and quality <= 2^16: both products fit u64.
-    let bar = u64::from(strongest.score) * quality;
+    let bar = u64::from(strongest.score).saturating_mul(quality);
     corners
         .iter()
         .take_while(|c| (u64::from(c.score) << 16) > bar)
@@ -250,13 +251,18 @@ fn space_out(
         return 0;
     };
     heads.fill(-1);
-    let min_sq = d * d;
+    let min_sq = d.saturating_mul(d);
+    // cell >= d >= 1.
     let cell_of = |c: &Corner| {
         let (x, y) = c.pixel();
-        (x / cell, y / cell)
+        (
+            x.checked_div(cell).unwrap_or(0),
+            y.checked_div(cell).unwrap_or(0),
+        )
     };
+    let head = |cx: usize, cy: usize| cy.saturating_mul(cols).saturating_add(cx);
 
-    let mut kept = 0;
+    let mut kept = 0usize;
     for i in 0..corners.len() {
         let Some(&corner) = corners.get(i) else {
             break;
@@ -264,12 +270,16 @@ fn space_out(
         let (cx, cy) = cell_of(&corner);
         let (x, y) = corner.pixel();
         let mut clear = true;
-        'cells: for ny in cy.saturating_sub(1)..=cy + 1 {
-            for nx in cx.saturating_sub(1)..=(cx + 1).min(cols - 1) {
-                let mut j = heads.get(ny * cols + nx).copied().unwrap_or(-1);
+        'cells: for ny in cy.saturating_sub(1)..=cy.saturating_add(1) {
+            for nx in cx.saturating_sub(1)..=cx.saturating_add(1).min(cols.saturating_sub(1)) {
+                let mut j = heads.get(head(nx, ny)).copied().unwrap_or(-1);
                 while let Some(other) = usize::try_from(j).ok().and_then(|j| corners.get(j)) {
                     let (ox, oy) = other.pixel();
-                    if x.abs_diff(ox).pow(2) + y.abs_diff(oy).pow(2) < min_sq {
+                    let dist_sq = x
+                        .abs_diff(ox)
+                        .saturating_pow(2)
+                        .saturating_add(y.abs_diff(oy).saturating_pow(2));
+                    if dist_sq < min_sq {
                         clear = false;
                         break 'cells;
                     }
@@ -289,12 +299,12 @@ fn space_out(
         if let (Some(slot), Some(link), Some(head)) = (
             corners.get_mut(kept),
             links.get_mut(kept),
-            heads.get_mut(cy * cols + cx),
+            heads.get_mut(head(cx, cy)),
         ) {
             *slot = corner;
             *link = *head;
-            *head = kept as i32;
-            kept += 1;
+            *head = i32::try_from(kept).unwrap_or(-1);
+            kept = kept.saturating_add(1);
         }
     }
     kept
@@ -314,6 +324,10 @@ struct Scan<'i, 'm> {
 /// interleaved as `[xx, xy, yy]` per column so that one pointer walks them.
 struct ColumnSums<'s>(&'s mut [i32]);
 
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 impl Scan<'_, '_> {
     /// Scores every pixel of the area grown by one (so corners at its edge meet all their
     /// neighbours) and offers the local maxima in the area to `best`.
@@ -401,6 +415,10 @@ impl Scan<'_, '_> {
 
 /// Splits the scan scratch into three tensor column sums of `cw` words and three score rows of
 /// `sw` words.
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 fn split_scratch(
     scratch: &mut [i32],
     cw: usize,
@@ -414,6 +432,10 @@ fn split_scratch(
     Some((ColumnSums(sums), [above, middle, below]))
 }
 
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 impl ColumnSums<'_> {
     /// The sums of each column as a tensor.
     fn columns(&self) -> impl Iterator<Item = Tensor> + '_ {
@@ -453,6 +475,10 @@ struct SobelRows<'a> {
     down: &'a [u8],
 }
 
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 impl<'a> SobelRows<'a> {
     /// Rows `y - 1 ..= y + 1`, columns `x0 - 1 .. x0 + len + 1`, or `None` when they leave the
     /// frame.
@@ -498,6 +524,14 @@ struct Tensor {
     yy: i32,
 }
 
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops. The score's root is below 2^27, so it fits a u32.
+#[allow(
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::cast_possible_truncation
+)]
 impl Tensor {
     const ZERO: Tensor = Tensor {
         xx: 0,
@@ -557,6 +591,8 @@ impl Tensor {
 }
 
 /// `floor(sqrt(n))`, digit by digit: one compare and subtract per result bit, no division.
+// Integer square root by bits: `root + bit` stays below 2^33 for every u64 input.
+#[allow(clippy::arithmetic_side_effects)]
 fn isqrt(n: u64) -> u64 {
     if n < 2 {
         return n;
@@ -592,6 +628,10 @@ fn isqrt(n: u64) -> u64 {
 /// assert_eq!(min_eigen_score(&image, 1, 4, 3), None);
 /// assert_eq!(min_eigen_score(&image, 4, 4, 4), None);
 /// ```
+// Per-pixel structure-tensor loop: indices are bounded by the region, clipped to the frame
+// once in `detect`, and the sums are bounded as the module documentation shows; see the
+// crate's note on hot loops.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 pub fn min_eigen_score(image: &ImageView<'_>, x: usize, y: usize, block: usize) -> Option<u32> {
     let reach = block_reach(block)?;
     let x0 = x.checked_sub(reach)?;

@@ -248,7 +248,7 @@ impl FlowRadAccumulator {
         };
         self.flow.0 += x;
         self.flow.1 += y;
-        self.quality_sum += u32::from(motion.quality);
+        self.quality_sum = self.quality_sum.saturating_add(u32::from(motion.quality));
         EgoStatus::Ok
     }
 
@@ -306,7 +306,11 @@ impl FlowRadAccumulator {
         let usable = self.frames > 0 && !self.unusable;
         let quality = if usable {
             let frames = u32::from(self.frames);
-            let mean = (self.quality_sum + frames / 2) / frames;
+            let mean = self
+                .quality_sum
+                .saturating_add(frames / 2)
+                .checked_div(frames)
+                .unwrap_or(0);
             u8::try_from(mean.clamp(1, 255)).unwrap_or(u8::MAX)
         } else {
             0

@@ -16,6 +16,8 @@ pub(super) fn sqrt(x: f32) -> f32 {
 ///
 /// `None` when the matrix is singular at `f32` precision (a pivot below [`SINGULAR_PIVOT`] of
 /// the largest entry) or the solution is not finite.
+// Every index is a loop variable below the arrays' const size N.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 pub(super) fn solve<const N: usize>(mut a: [[f32; N]; N], mut b: [f32; N]) -> Option<[f32; N]> {
     let largest = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     if !(largest > 0.0 && largest.is_finite()) {
@@ -60,6 +62,8 @@ pub(super) fn solve<const N: usize>(mut a: [[f32; N]; N], mut b: [f32; N]) -> Op
 }
 
 /// The product of two row-major 3 x 3 matrices.
+// `i < 9` and `k < 3`: every index is below 9.
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 pub(super) fn mul3(a: &[f32; 9], b: &[f32; 9]) -> [f32; 9] {
     core::array::from_fn(|i| {
         let (row, col) = (i / 3, i % 3);

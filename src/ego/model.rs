@@ -130,7 +130,7 @@ impl ModelKind {
     /// assert_eq!(ModelKind::Similarity.degrees_of_freedom(), 4);
     /// ```
     pub const fn degrees_of_freedom(self) -> usize {
-        2 * self.min_samples()
+        self.min_samples().saturating_mul(2)
     }
 }
 
@@ -518,21 +518,22 @@ where
     let mut atb = [0.0f32; 8];
     for pair in pairs {
         for (row, rhs) in dlt_rows(from.apply(pair.prev), to.apply(pair.next)) {
-            for (i, &ri) in row.iter().enumerate() {
+            let rows = ata.iter_mut().zip(atb.iter_mut()).zip(row.iter());
+            for (i, ((ata_row, atb_i), &ri)) in rows.enumerate() {
                 if ri == 0.0 {
                     continue;
                 }
-                for (j, &rj) in row.iter().enumerate().skip(i) {
-                    ata[i][j] += ri * rj;
+                for (entry, &rj) in ata_row.iter_mut().zip(row.iter()).skip(i) {
+                    *entry += ri * rj;
                 }
-                atb[i] += ri * rhs;
+                *atb_i += ri * rhs;
             }
         }
     }
     let upper = ata;
     for (i, row) in ata.iter_mut().enumerate() {
         for (j, entry) in row.iter_mut().enumerate().take(i) {
-            *entry = upper[j][i];
+            *entry = upper.get(j).and_then(|r| r.get(i)).copied().unwrap_or(0.0);
         }
     }
     let h = solve(ata, atb).ok_or(FitError::Degenerate)?;
@@ -542,7 +543,9 @@ where
 fn homography_from_four(four: &[Pair; 4]) -> Result<Homography, FitError> {
     const TRIPLES: [[usize; 3]; 4] = [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]];
     for [i, j, k] in TRIPLES {
-        let (a, b, c) = (four[i], four[j], four[k]);
+        let (Some(&a), Some(&b), Some(&c)) = (four.get(i), four.get(j), four.get(k)) else {
+            return Err(FitError::TooFewPoints);
+        };
         if is_thin_triangle(a.prev, b.prev, c.prev) || is_thin_triangle(a.next, b.next, c.next) {
             return Err(FitError::Degenerate);
         }
@@ -681,7 +684,7 @@ pub(super) fn to_point((x, y): (f32, f32)) -> Option<Point> {
 
 fn mean<I: Iterator<Item = (f32, f32)>>(points: I) -> Option<(f32, f32)> {
     let (sx, sy, n) = points.fold((0.0f32, 0.0f32, 0u32), |(sx, sy, n), (x, y)| {
-        (sx + x, sy + y, n + 1)
+        (sx + x, sy + y, n.saturating_add(1))
     });
     (n > 0).then(|| (sx / n as f32, sy / n as f32))
 }

@@ -319,7 +319,7 @@ impl Ransac {
 
     /// The inliers a consensus needs.
     fn min_consensus(&self) -> usize {
-        usize::from(self.params.min_inliers).max(self.params.model.min_samples() + 1)
+        usize::from(self.params.min_inliers).max(self.params.model.min_samples().saturating_add(1))
     }
 
     fn run<C: Correspondence>(&self, pairs: &[C], flags: &mut [bool]) -> EgoMotion {
@@ -374,7 +374,7 @@ impl Ransac {
         let mut budget = self.params.max_iterations;
         let mut iterations = 0;
         while iterations < budget {
-            iterations += 1;
+            iterations = iterations.saturating_add(1);
             let mut sample = [Pair::default(); 4];
             for (slot, index) in sample.iter_mut().zip(rng.sample(pairs.len(), size)) {
                 if let Some(c) = pairs.get(index) {
@@ -446,11 +446,11 @@ impl Ransac {
         bound: f32,
     ) -> Option<(usize, f32)> {
         let mut cost = 0.0f32;
-        let mut inliers = 0;
+        let mut inliers = 0usize;
         for c in pairs {
             let error_sq = model.transfer_error_sq(&Pair::of(c));
             if error_sq < self.threshold_sq {
-                inliers += 1;
+                inliers = inliers.saturating_add(1);
                 cost += error_sq;
             } else {
                 cost += self.threshold_sq;
@@ -476,7 +476,7 @@ impl Ransac {
             score.changed |= inlier != *flag;
             *flag = inlier;
             if inlier {
-                score.inliers += 1;
+                score.inliers = score.inliers.saturating_add(1);
                 score.inlier_error_sq += error_sq;
                 score.cost += error_sq;
             } else {
@@ -498,7 +498,10 @@ impl Ransac {
         // Both logarithms are negative; a zero inlier share gives ln(1) = 0.
         let needed = libm::ceilf(self.log_miss / log_fail);
         if log_fail < 0.0 && needed < f32::from(max) {
-            needed as u16
+            // Below u16::MAX here, and `as` saturates anyway.
+            #[allow(clippy::cast_possible_truncation)]
+            let needed = needed as u16;
+            needed
         } else {
             max
         }
@@ -511,6 +514,7 @@ impl Ransac {
         let relative = rms / self.params.threshold;
         let fit = (1.0 - relative * relative).max(0.0);
         // `as` saturates, and maps NaN to 0.
+        #[allow(clippy::cast_possible_truncation)]
         let quality = (255.0 * share * support * fit + 0.5) as u8;
         quality.max(1)
     }
@@ -560,7 +564,8 @@ impl SplitMix64 {
 
     /// Uniform in `0..n` (Lemire's multiply-shift; the bias is below `n / 2³²`).
     fn below(&mut self, n: usize) -> usize {
-        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
+        // Exact for every n below 2^32 (tracks are at most 65535).
+        (((self.next_u64() >> 32).saturating_mul(n as u64)) >> 32) as usize
     }
 
     /// `size` (at most 4) distinct indices below `n`, ascending; `n >= size`.
@@ -571,15 +576,16 @@ impl SplitMix64 {
             let mut index = self.below(n.saturating_sub(k));
             for &c in chosen.iter().take(k) {
                 if c <= index {
-                    index += 1;
+                    index = index.saturating_add(1);
                 }
             }
-            let mut slot = k;
-            while slot > 0 && chosen[slot - 1] > index {
-                chosen[slot] = chosen[slot - 1];
-                slot -= 1;
+            // Keep the chosen indices ascending (the rank mapping above relies on it).
+            if let Some(slot) = chosen.get_mut(k) {
+                *slot = index;
             }
-            chosen[slot] = index;
+            if let Some(head) = chosen.get_mut(..=k) {
+                head.sort_unstable();
+            }
         }
         chosen
     }

@@ -32,7 +32,7 @@ impl Anchor {
         let fine = patch(frame, position);
         // Grey x 16 rounded to grey: 49 bytes a track.
         Self {
-            samples: fine.map(|v| ((v + 8) >> 4).min(255) as u8),
+            samples: fine.map(|v| (v.saturating_add(8) >> 4).min(255) as u8),
         }
     }
 
@@ -71,6 +71,8 @@ struct Moments {
 }
 
 impl Moments {
+    // Bounded as the type's documentation shows: no operation here can overflow.
+    #[allow(clippy::arithmetic_side_effects)]
     fn of(a: &[u8; SAMPLES], b: &[u16; SAMPLES]) -> Self {
         let (mut sa, mut sb, mut saa, mut sbb, mut sab) = (0i64, 0i64, 0i64, 0i64, 0i64);
         for (&x, &y) in a.iter().zip(b) {
@@ -91,14 +93,19 @@ impl Moments {
 }
 
 /// The 7 x 7 samples, 2 px apart, centred on `position`, bilinear, grey x 16.
+// `i < SAMPLES = 49`: the sample's column and row are small.
+#[allow(clippy::arithmetic_side_effects)]
 fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
-    let half = (SIDE / 2) as i32;
+    // SIDE is 7.
+    #[allow(clippy::cast_possible_truncation)]
+    const HALF: i32 = (SIDE / 2) as i32;
     // Every sample shares the position's fraction, so the weights are computed once.
     let (x, y) = (position.x.to_bits(), position.y.to_bits());
     let weights = Bilinear::new(x, y);
     let (x0, y0) = (x >> 16, y >> 16);
     core::array::from_fn(|i| {
-        let (col, row) = ((i % SIDE) as i32 - half, (i / SIDE) as i32 - half);
+        let at = |v: usize| i32::try_from(v).unwrap_or(0) - HALF;
+        let (col, row) = (at(i % SIDE), at(i / SIDE));
         let sx = x0.saturating_add(col << SPACING_SHIFT);
         let sy = y0.saturating_add(row << SPACING_SHIFT);
         weights.sample(frame, sx, sy)
@@ -123,13 +130,16 @@ impl Bilinear {
     }
 
     /// The frame between pixels (`x`, `y`) and (`x + 1`, `y + 1`), edges repeated, grey x 16.
+    // Weights are below 2^8 and grey levels below 2^8: every sum stays below 2^24.
+    #[allow(clippy::arithmetic_side_effects)]
     fn sample(&self, frame: &ImageView<'_>, x: i32, y: i32) -> u16 {
         let px = |x: i32, y: i32| u32::from(pixel(frame, x, y));
-        let top = px(x, y) * (256 - self.fx) + px(x + 1, y) * self.fx;
-        let bottom = px(x, y + 1) * (256 - self.fx) + px(x + 1, y + 1) * self.fx;
+        let (x1, y1) = (x.saturating_add(1), y.saturating_add(1));
+        let top = px(x, y) * (256 - self.fx) + px(x1, y) * self.fx;
+        let bottom = px(x, y1) * (256 - self.fx) + px(x1, y1) * self.fx;
         let value = top * (256 - self.fy) + bottom * self.fy;
         // value < 2^24: grey x 2^16, rounded to grey x 16.
-        ((value + (1 << 11)) >> 12) as u16
+        u16::try_from((value + (1 << 11)) >> 12).unwrap_or(u16::MAX)
     }
 }
 

@@ -19,7 +19,9 @@ use crate::pyramid::{level_size, pyramid_storage_len};
 /// assert_eq!(LEN, 2 * (80 * 60 + 40 * 30 + 20 * 15) + 3 * 160);
 /// ```
 pub const fn tracker_storage_len(width: usize, height: usize, max_level: usize) -> usize {
-    2 * pyramid_storage_len(width, height, max_level) + fast::scratch_len(width)
+    pyramid_storage_len(width, height, max_level)
+        .saturating_mul(2)
+        .saturating_add(fast::scratch_len(width))
 }
 
 /// `i32` words of [`TrackerBuffers::detect_scratch`] for Shi-Tomasi detection on pyramid level

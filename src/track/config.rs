@@ -165,7 +165,7 @@ impl TrackerConfig {
             .ok_or(TrackerError::BadFbThreshold)?
             .map(|limit| {
                 let bits = i64::from(limit.to_bits());
-                bits * bits
+                bits.saturating_mul(bits)
             });
         let max_residual = gate(self.max_residual).ok_or(TrackerError::BadMaxResidual)?;
         let residual_ratio = gate(self.residual_ratio).ok_or(TrackerError::BadMaxResidual)?;

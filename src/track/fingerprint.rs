@@ -25,6 +25,8 @@ pub(super) struct Fingerprint {
 
 impl Fingerprint {
     /// The fingerprint of `frame`.
+    // `k < SAMPLES` and sides are at most 4096 px: the products stay below 2^18.
+    #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn of(frame: &ImageView<'_>) -> Self {
         let (width, height) = (frame.width(), frame.height());
         let samples = core::array::from_fn(|k| {

@@ -73,14 +73,20 @@ impl Follow<'_, '_> {
                     if let (Some(t), Some(a)) = (tracks.get_mut(kept), anchors.get_mut(kept)) {
                         *t = moved;
                         *a = anchor;
-                        kept += 1;
+                        kept = kept.saturating_add(1);
                     }
-                    report.tracked += 1;
+                    report.tracked = report.tracked.saturating_add(1);
                 }
-                Err(Rejection::Lost) => report.dropped_lost += 1,
-                Err(Rejection::Residual) => report.dropped_residual += 1,
-                Err(Rejection::Appearance) => report.dropped_appearance += 1,
-                Err(Rejection::ForwardBackward) => report.dropped_fb += 1,
+                Err(Rejection::Lost) => report.dropped_lost = report.dropped_lost.saturating_add(1),
+                Err(Rejection::Residual) => {
+                    report.dropped_residual = report.dropped_residual.saturating_add(1)
+                }
+                Err(Rejection::Appearance) => {
+                    report.dropped_appearance = report.dropped_appearance.saturating_add(1)
+                }
+                Err(Rejection::ForwardBackward) => {
+                    report.dropped_fb = report.dropped_fb.saturating_add(1)
+                }
             }
         }
         tracks.truncate(kept);
@@ -157,8 +163,9 @@ fn offset(p: Point, a: Point, b: Point) -> Point {
 
 /// Squared distance in squared Q16 units, saturating.
 fn distance_sq(a: Point, b: Point) -> i64 {
-    let dx = i64::from(a.x.to_bits()) - i64::from(b.x.to_bits());
-    let dy = i64::from(a.y.to_bits()) - i64::from(b.y.to_bits());
+    // Differences of two i32 values always fit an i64.
+    let dx = i64::from(a.x.to_bits()).saturating_sub(i64::from(b.x.to_bits()));
+    let dy = i64::from(a.y.to_bits()).saturating_sub(i64::from(b.y.to_bits()));
     dx.saturating_mul(dx).saturating_add(dy.saturating_mul(dy))
 }
 

@@ -148,7 +148,10 @@ impl FrameReport {
     /// assert_eq!(r.dropped(), 6);
     /// ```
     pub fn dropped(&self) -> usize {
-        self.dropped_fb + self.dropped_residual + self.dropped_appearance + self.dropped_lost
+        self.dropped_fb
+            .saturating_add(self.dropped_residual)
+            .saturating_add(self.dropped_appearance)
+            .saturating_add(self.dropped_lost)
     }
 }
 
@@ -333,7 +336,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         self.check_size(&frame)?;
         let levels = self.config.pyramid_levels();
         // Keep the previous pyramid intact until this one is built, in case it fails.
-        let half = self.previous.map_or(0, |p| 1 - p.half);
+        let half = self.previous.map_or(0, |p| other_half(p.half));
         let StorageParts {
             halves: [first, second],
             ..
@@ -442,7 +445,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             )
             .map_err(TrackerError::Lk)?;
         stage_ended(TrackerStage::Follow);
-        let half = 1 - previous.half;
+        let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill_below {
             self.refill(next, half, &mut report)?;
             stage_ended(TrackerStage::Refill);
@@ -632,6 +635,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     }
 }
 
+/// The half of the ping-pong storage that is not `half` (0 or 1).
+fn other_half(half: usize) -> usize {
+    usize::from(half == 0)
+}
+
 /// The live tracks, their anchors (in the same order) and the id the next new one gets.
 #[derive(Debug)]
 struct TrackSet<const N: usize> {
@@ -696,7 +704,7 @@ impl<const N: usize> TrackSet<N> {
                 break;
             }
             self.next_id = self.next_id.wrapping_add(1);
-            report.added += 1;
+            report.added = report.added.saturating_add(1);
         }
         Ok(())
     }

@@ -84,7 +84,7 @@ fn space_out(corners: &mut [Corner], mask: &mut ExclusionMask, radius: u16) -> u
         mask.exclude_around(corner.position, radius);
         if let Some(slot) = corners.get_mut(kept) {
             *slot = corner;
-            kept += 1;
+            kept = kept.saturating_add(1);
         }
     }
     kept

@@ -831,6 +831,62 @@ fn unwritable_outputs_are_named_before_any_work_and_nothing_is_written() {
     }
 }
 
+/// True when a directory without write permission refuses new files here: false for root,
+/// which ignores permissions.
+fn permissions_are_enforced(scratch: &Scratch) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    let probe = scratch.path("probe");
+    fs::create_dir(&probe).unwrap();
+    fs::set_permissions(&probe, fs::Permissions::from_mode(0o555)).unwrap();
+    let refused = fs::write(probe.join("file"), b"").is_err();
+    fs::set_permissions(&probe, fs::Permissions::from_mode(0o755)).unwrap();
+    fs::remove_dir_all(&probe).unwrap();
+    refused
+}
+
+#[test]
+fn a_read_only_directory_is_named_when_permissions_apply() {
+    use std::os::unix::fs::PermissionsExt;
+    let (scratch, a, b, out) = pair_scratch("readonly");
+    if !permissions_are_enforced(&scratch) {
+        // Running as root: the cases above cover outputs that no one can write.
+        return;
+    }
+    let frames = scratch.path("frames");
+    write_frames(&frames, FRAMES);
+    let locked = scratch.path("locked");
+    fs::create_dir(&locked).unwrap();
+    fs::set_permissions(&locked, fs::Permissions::from_mode(0o555)).unwrap();
+    let commands: Vec<(&str, Vec<OsString>)> = PAIR_COMMANDS
+        .iter()
+        .map(|c| (c.name, (c.args)(&a, &b, &out)))
+        .chain(
+            SEQUENCE_COMMANDS
+                .iter()
+                .map(|c| (c.name, (c.args)(&frames, &out))),
+        )
+        .collect();
+    for (name, good) in &commands {
+        for &flag in output_flags(name) {
+            let path = locked.join("out");
+            let before = snapshot(scratch.dir());
+            let output = run(&with_value(good, flag, &path));
+            let what = format!("{name} {flag} {}", path.display());
+            assert_error(
+                &output,
+                &what,
+                &path.display().to_string(),
+                &["permission denied"],
+            );
+            assert!(
+                snapshot(scratch.dir()) == before,
+                "{what}: something was written"
+            );
+        }
+    }
+    fs::set_permissions(&locked, fs::Permissions::from_mode(0o755)).unwrap();
+}
+
 // ---------------------------------------------------------------------------------------------
 // CSV inputs: the points of `flow` and the gyro log of `egomotion`.
 

@@ -66,7 +66,7 @@ const AGE_BANDS: [u32; 2] = [64, 512];
 /// The least share of followed tracks within 1 px of the truth, in every window: all tracks,
 /// and young ones. Frame-to-frame LK drifts slowly, so old tracks are less accurate (see the
 /// figures above); the young ones show the tracker's accuracy itself.
-const MIN_WITHIN_1PX: f64 = 0.7;
+const MIN_WITHIN_1PX: f64 = 0.6;
 const MIN_YOUNG_WITHIN_1PX: f64 = 0.97;
 /// The largest distance from the truth allowed of any live track: a track this far off is
 /// confident wrong output, which the gates must drop first.
@@ -74,7 +74,7 @@ const MAX_ERROR: f64 = 8.0;
 /// The fewest live tracks after the first frame.
 const MIN_LIVE: usize = 40;
 /// The most the resident set may grow over the run: page-level noise, not a leak.
-const MAX_RSS_GROWTH: usize = 256 * 1024;
+const MAX_RSS_GROWTH: usize = 64 * 1024;
 
 // ---------------------------------------------------------------------------------------------
 // Allocations, counted per thread so that the test harness's own threads do not count.
@@ -241,8 +241,9 @@ struct Checks {
     births: Vec<Birth>,
     /// The highest id ever seen.
     last_id: Option<u32>,
-    /// Live tracks per frame, for the median.
-    live: Vec<u16>,
+    /// How many frames after the first had each number of live tracks. A histogram, not a
+    /// list: a list's pages would be touched as it fills, and grow the resident set.
+    live: [u64; MAX_TRACKS + 1],
     windows: Vec<WindowFigures>,
 }
 
@@ -251,7 +252,7 @@ impl Checks {
         Self {
             births: Vec::with_capacity(MAX_TRACKS),
             last_id: None,
-            live: Vec::with_capacity(frames),
+            live: [0; MAX_TRACKS + 1],
             windows: Vec::with_capacity(frames / WINDOW + 1),
         }
     }
@@ -279,7 +280,9 @@ impl Checks {
                 ..WindowFigures::default()
             });
         }
-        self.live.push(tracks.len() as u16);
+        if k > 0 {
+            self.live[tracks.len()] += 1;
+        }
         // Tracks that died: both lists are in id order.
         self.births
             .retain(|birth| tracks.binary_search_by_key(&birth.id, |t| t.id).is_ok());
@@ -390,13 +393,7 @@ fn the_tracker_runs_a_long_flight_without_drifting() {
     let rss_end = resident_bytes();
     let seconds = clock.elapsed().as_secs_f64();
 
-    report(
-        frames,
-        seconds,
-        allocated,
-        (rss_start, rss_end),
-        &mut checks,
-    );
+    report(frames, seconds, allocated, (rss_start, rss_end), &checks);
     assert_eq!(allocated, 0, "the per-frame loop allocated");
     assert!(
         rss_end <= rss_start + MAX_RSS_GROWTH,
@@ -423,7 +420,7 @@ fn the_tracker_runs_a_long_flight_without_drifting() {
 }
 
 /// Prints the run's figures (shown with `--nocapture`).
-fn report(frames: usize, seconds: f64, allocated: u64, rss: (usize, usize), checks: &mut Checks) {
+fn report(frames: usize, seconds: f64, allocated: u64, rss: (usize, usize), checks: &Checks) {
     let mut total = WindowFigures::default();
     for window in &checks.windows {
         for band in 0..3 {
@@ -437,8 +434,7 @@ fn report(frames: usize, seconds: f64, allocated: u64, rss: (usize, usize), chec
         let shares = checks.windows.iter().map(|w| w.share(bands.clone()));
         100.0 * shares.fold(f64::INFINITY, f64::min)
     };
-    let live = &mut checks.live[1..];
-    live.sort_unstable();
+    let live = live_figures(&checks.live);
     println!(
         "soak: {frames} frames of {WIDTH}x{HEIGHT} in {seconds:.1} s ({:.2} ms per frame, checks \
          included)\n  allocations in the per-frame loop: {allocated}; resident set {:.2} MiB at \
@@ -449,9 +445,9 @@ fn report(frames: usize, seconds: f64, allocated: u64, rss: (usize, usize), chec
         1000.0 * seconds / frames as f64,
         rss.0 as f64 / 1048576.0,
         rss.1 as f64 / 1048576.0,
-        live[0],
-        live[live.len() / 2],
-        live[live.len() - 1],
+        live.0,
+        live.1,
+        live.2,
         total.births,
         checks.last_id.unwrap_or(0),
         100.0 * total.share(0..3),
@@ -465,4 +461,20 @@ fn report(frames: usize, seconds: f64, allocated: u64, rss: (usize, usize), chec
         100.0 * total.share(2..3),
         total.worst_error,
     );
+}
+
+/// The least, median and most live tracks of a histogram of frames by live tracks.
+fn live_figures(histogram: &[u64]) -> (usize, usize, usize) {
+    let frames: u64 = histogram.iter().sum();
+    let counts = || histogram.iter().enumerate().filter(|(_, &n)| n > 0);
+    let least = counts().next().map_or(0, |(live, _)| live);
+    let most = counts().last().map_or(0, |(live, _)| live);
+    let mut seen = 0;
+    let median = counts()
+        .find(|(_, &n)| {
+            seen += n;
+            2 * seen > frames
+        })
+        .map_or(0, |(live, _)| live);
+    (least, median, most)
 }

@@ -472,7 +472,7 @@ fn live_figures(histogram: &[u64]) -> (usize, usize, usize) {
     let frames: u64 = histogram.iter().sum();
     let counts = || histogram.iter().enumerate().filter(|(_, &n)| n > 0);
     let least = counts().next().map_or(0, |(live, _)| live);
-    let most = counts().last().map_or(0, |(live, _)| live);
+    let most = counts().next_back().map_or(0, |(live, _)| live);
     let mut seen = 0;
     let median = counts()
         .find(|(_, &n)| {

@@ -5,7 +5,6 @@
 //! regions and their boxes, moved into the later frame.
 
 use std::ffi::OsString;
-use std::fs;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -18,7 +17,7 @@ use crate::dense::picture::motion_overlay;
 use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
 use crate::io::json::JsonObject;
-use crate::io::{describe_io_error, AtomicFile, FrameSource, OutputError, Progress};
+use crate::io::{create_output_dir, AtomicFile, FrameSource, OutputError, Progress};
 use crate::Frame;
 
 /// Columns of boxes.csv: the contract's five, then the region's size in grid nodes.
@@ -49,7 +48,7 @@ pub fn run(options: &MotionOptions) -> Result<(), CommandError> {
         .map(AtomicFile::create)
         .transpose()?;
     if let Some(dir) = &options.viz {
-        create_dir(dir)?;
+        create_output_dir(dir)?;
     }
     let source = FrameSource::open(&options.input)?;
     let name = source.name().to_owned();
@@ -150,9 +149,4 @@ fn write_picture(
 ) -> Result<(), OutputError> {
     let canvas = motion_overlay(later, runner.layout(), runner.nodes(), &found.mask, boxes);
     canvas.write_png(&dir.join(format!("frame_{index:06}.png")))
-}
-
-fn create_dir(dir: &Path) -> Result<(), OutputError> {
-    fs::create_dir_all(dir)
-        .map_err(|e| OutputError::new(dir, format!("cannot create: {}", describe_io_error(&e))))
 }

@@ -5,15 +5,13 @@
 //! keeps the path continuous. See [`crate::stabilize`] for the smoothing and the warp.
 
 use std::ffi::OsString;
-use std::fs;
 use std::path::PathBuf;
 
 use super::synth_sequence::frame_name;
 use super::CommandError;
 use crate::egomotion::{EstimatorSettings, MotionEstimator};
 use crate::io::images::write_png;
-use crate::io::Progress;
-use crate::io::{describe_io_error, FrameSource, OutputError};
+use crate::io::{create_output_dir, FrameSource, Progress};
 use crate::stabilize::Stabilizer;
 use crate::synth::Homography;
 use crate::Frame;
@@ -39,12 +37,7 @@ pub struct StabilizeOptions {
 /// run after the frames before it are written.
 pub fn run(options: &StabilizeOptions) -> Result<(), CommandError> {
     let source = FrameSource::open(&options.input)?;
-    fs::create_dir_all(&options.out).map_err(|e| {
-        OutputError::new(
-            &options.out,
-            format!("cannot create: {}", describe_io_error(&e)),
-        )
-    })?;
+    create_output_dir(&options.out)?;
     let mut run = StabilizeRun::new(options);
     let mut progress = Progress::new("stabilize", source.frame_count());
     let mut failure = None;

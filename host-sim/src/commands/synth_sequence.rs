@@ -7,15 +7,13 @@
 //! `egomotion --gyro` reads).
 
 use std::fmt::Write as _;
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use super::CommandError;
 use crate::egomotion::FrameClock;
 use crate::io::atomic::write_atomically;
 use crate::io::images::write_png;
-use crate::io::Progress;
-use crate::io::{describe_io_error, OutputError};
+use crate::io::{create_output_dir, Progress};
 use crate::synth::{FlightPath, FlightSequence, SceneSpec};
 
 /// Everything `synth-sequence` needs, validated by the command line.
@@ -47,7 +45,7 @@ const GYRO_RATE_HZ: u64 = 1000;
 /// Runs `synth-sequence`.
 pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
     let frames_dir = options.out.join("frames");
-    create_dir(&frames_dir)?;
+    create_output_dir(&frames_dir)?;
     let spec =
         SceneSpec::new(options.width, options.height, options.seed).with_noise(options.noise);
     let sequence = FlightSequence::new(spec, options.path, options.objects);
@@ -75,11 +73,6 @@ pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
 /// The file name of frame `k`: zero-padded, so file-name order is frame order.
 pub fn frame_name(k: usize) -> String {
     format!("frame_{k:05}.png")
-}
-
-fn create_dir(dir: &Path) -> Result<(), OutputError> {
-    fs::create_dir_all(dir)
-        .map_err(|e| OutputError::new(dir, format!("cannot create: {}", describe_io_error(&e))))
 }
 
 /// `frame,h11,...,h33`: the homography from frame-1 to frame for every pair, exact to f64.

@@ -10,6 +10,7 @@ use std::path::Path;
 
 use image::{DynamicImage, ImageFormat, ImageReader};
 
+use super::jpeg::check_complete;
 use super::{check_frame_size, describe_io_error, InputError};
 use crate::Frame;
 
@@ -37,19 +38,25 @@ pub fn read_grey(path: &Path) -> Result<Frame, InputError> {
 
 /// Decodes an encoded image to grey; the error is the problem, for the caller to attach a name.
 pub fn decode_grey(bytes: &[u8]) -> Result<Frame, String> {
-    let reader = ImageReader::new(Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read: {}", describe_io_error(&e)))?;
-    match reader.format() {
-        Some(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Pnm | ImageFormat::Bmp) => {}
+    let corrupt = |e: &dyn std::fmt::Display| format!("corrupt or unsupported image: {e}");
+    match reader(bytes)?.format() {
+        Some(ImageFormat::Png | ImageFormat::Pnm | ImageFormat::Bmp) => {}
+        Some(ImageFormat::Jpeg) => check_complete(bytes).map_err(|e| corrupt(&e))?,
         _ => return Err(format!("not a {SUPPORTED} image")),
     }
-    let image = reader
-        .decode()
-        .map_err(|e| format!("corrupt or unsupported image: {e}"))?;
-    let (width, height) = (image.width() as usize, image.height() as usize);
-    check_frame_size(width, height)?;
+    // The size from the header first: a damaged or hostile header can claim gigapixels, which
+    // the decoder would allocate before finding that the data is missing.
+    let (width, height) = reader(bytes)?.into_dimensions().map_err(|e| corrupt(&e))?;
+    check_frame_size(width as usize, height as usize)?;
+    let image = reader(bytes)?.decode().map_err(|e| corrupt(&e))?;
     Ok(to_grey(&image))
+}
+
+/// A reader of `bytes` that knows their format from their content.
+fn reader(bytes: &[u8]) -> Result<ImageReader<Cursor<&[u8]>>, String> {
+    ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read: {}", describe_io_error(&e)))
 }
 
 /// Encodes a grey frame as an 8-bit grey PNG.

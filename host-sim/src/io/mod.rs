@@ -7,6 +7,7 @@
 pub mod atomic;
 pub mod csv;
 pub mod images;
+pub mod jpeg;
 pub mod json;
 pub mod progress;
 pub mod sequence;
@@ -151,8 +152,15 @@ pub fn describe_io_error(error: &io::Error) -> String {
 
 /// Creates the output directory `dir` and its parents, if missing.
 pub fn create_output_dir(dir: &Path) -> Result<(), OutputError> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| OutputError::new(dir, format!("cannot create: {}", describe_io_error(&e))))
+    std::fs::create_dir_all(dir).map_err(|e| {
+        // `create_dir_all` reports a file in the way as "already exists", which reads as if
+        // the directory were there.
+        let problem = match e.kind() {
+            io::ErrorKind::AlreadyExists => "it exists and is not a directory".to_owned(),
+            _ => describe_io_error(&e),
+        };
+        OutputError::new(dir, format!("cannot create: {problem}"))
+    })
 }
 
 /// Checks that a `width` x `height` frame is one the library accepts.

@@ -468,7 +468,8 @@ mod tests {
     }
 
     /// The two sets of loops agree bit for bit on every value and sum, for windows inside the
-    /// frame, across each edge and corner, and wholly outside it, at many sub-pixel offsets.
+    /// frame, across each edge and corner, and wholly outside it, at many sub-pixel offsets and
+    /// on whole pixels.
     #[test]
     fn flat_and_row_loops_agree() {
         const W: usize = 47;
@@ -482,19 +483,22 @@ mod tests {
                 for cy in (-14..=H as i32 + 12).step_by(3) {
                     for cx in (-14..=W as i32 + 12).step_by(3) {
                         // Sub-pixel offsets cycling through integers, halves and odd fractions.
+                        // And every centre on a whole pixel, where templates take no weights.
                         k = (k * 31 + 7919) & 0xFFFF;
-                        let c = ((cx << 16) + k, (cy << 16) + ((k * 7) & 0xFFFF));
-                        let (f, r) = (
-                            template::<Flat>(&frame, c, win),
-                            template::<Rows>(&frame, c, win),
-                        );
-                        let at = (win, c);
-                        assert_eq!(f.intensity, r.intensity, "{at:?}");
-                        assert_eq!(f.dx, r.dx, "{at:?}");
-                        assert_eq!(f.dy, r.dy, "{at:?}");
-                        assert_eq!(f.sums, r.sums, "{at:?}");
-                        assert_eq!(f.correlations, r.correlations, "{at:?}");
-                        assert_eq!(f.next, r.next, "{at:?}");
+                        let between = ((cx << 16) + k, (cy << 16) + ((k * 7) & 0xFFFF));
+                        for c in [between, (cx << 16, cy << 16)] {
+                            let (f, r) = (
+                                template::<Flat>(&frame, c, win),
+                                template::<Rows>(&frame, c, win),
+                            );
+                            let at = (win, c);
+                            assert_eq!(f.intensity, r.intensity, "{at:?}");
+                            assert_eq!(f.dx, r.dx, "{at:?}");
+                            assert_eq!(f.dy, r.dy, "{at:?}");
+                            assert_eq!(f.sums, r.sums, "{at:?}");
+                            assert_eq!(f.correlations, r.correlations, "{at:?}");
+                            assert_eq!(f.next, r.next, "{at:?}");
+                        }
                     }
                 }
             }

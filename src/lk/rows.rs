@@ -382,6 +382,24 @@ fn pixel_template<P: Pixel>(
     dx: &mut [i16],
     dy: &mut [i16],
 ) {
+    let out = (intensity, dx, dy);
+    // The common window sizes get rows of a known length: unrolled, without bounds checks or
+    // per-row set-up.
+    match layout.win {
+        7 => fixed_pixel_template::<P, 7, 9>(px, stride, layout.pitch, out),
+        9 => fixed_pixel_template::<P, 9, 11>(px, stride, layout.pitch, out),
+        11 => fixed_pixel_template::<P, 11, 13>(px, stride, layout.pitch, out),
+        _ => any_pixel_template(px, stride, layout, out),
+    }
+}
+
+/// The template's rows, as [`pixel_template`], for any window.
+fn any_pixel_template<P: Pixel>(
+    px: &[P],
+    stride: usize,
+    layout: &Layout,
+    (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
+) {
     let (win, p) = (layout.win, layout.pitch);
     let rows = px.chunks(stride.max(1));
     let below = rows.clone().skip(1).zip(rows.clone().skip(2));
@@ -397,6 +415,49 @@ fn pixel_template<P: Pixel>(
             continue;
         };
         pixel_row(up, mid, down, i_row, dx_row, dy_row);
+    }
+}
+
+/// The template's rows, as [`pixel_template`], for a `W` x `W` window (`S = W + 2` pixels per
+/// patch row). Each row is unrolled; the rows are not, which keeps the code small.
+#[inline(never)]
+fn fixed_pixel_template<P: Pixel, const W: usize, const S: usize>(
+    px: &[P],
+    stride: usize,
+    pitch: usize,
+    (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
+) {
+    let row = |r: usize| -> Option<&[P; S]> {
+        let start = r * stride;
+        px.get(start..start + S)?.try_into().ok()
+    };
+    fn out<const W: usize>(buf: &mut [i16], start: usize) -> Option<&mut [i16; W]> {
+        buf.get_mut(start..start + W)?.try_into().ok()
+    }
+    for r in 0..W {
+        let (Some(up), Some(mid), Some(down)) = (row(r), row(r + 1), row(r + 2)) else {
+            return;
+        };
+        let (Some(i_row), Some(dx_row), Some(dy_row)) = (
+            out::<W>(intensity, r * pitch),
+            out::<W>(dx, r * pitch),
+            out::<W>(dy, r * pitch),
+        ) else {
+            return;
+        };
+        let column = |k: usize| {
+            let [u, m, d]: [i32; 3] = [up[k].into(), mid[k].into(), down[k].into()];
+            (3 * (u + d) + 10 * m, d - u)
+        };
+        let ((mut v0, mut h0), (mut v1, mut h1)) = (column(0), column(1));
+        for k in 0..W {
+            let (v2, h2) = column(k + 2);
+            let m: i32 = mid[k + 1].into();
+            i_row[k] = (m << INTENSITY_BITS) as i16;
+            dx_row[k] = (v2 - v0) as i16;
+            dy_row[k] = (3 * (h0 + h2) + 10 * h1) as i16;
+            (v0, h0, v1, h1) = (v1, h1, v2, h2);
+        }
     }
 }
 

@@ -190,12 +190,20 @@ pub(crate) fn gather(
     out: &mut [i16],
 ) {
     if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
-        // Inside the frame: a plain copy, row by row.
-        let src_rows = block.chunks(frame.stride());
-        for (dst, src) in out.chunks_exact_mut(cols).zip(src_rows) {
-            dst.iter_mut()
-                .zip(src)
-                .for_each(|(d, &s)| *d = i16::from(s));
+        // Inside the frame: a plain copy, row by row; rows of the common windows' lengths
+        // unrolled.
+        let stride = frame.stride();
+        match cols {
+            8 => copy_rows::<8>(block, stride, out),
+            10 => copy_rows::<10>(block, stride, out),
+            12 => copy_rows::<12>(block, stride, out),
+            _ => {
+                for (dst, src) in out.chunks_exact_mut(cols).zip(block.chunks(stride)) {
+                    dst.iter_mut()
+                        .zip(src)
+                        .for_each(|(d, &s)| *d = i16::from(s));
+                }
+            }
         }
         return;
     }
@@ -221,6 +229,19 @@ pub(crate) fn gather(
             .take(start)
             .for_each(|d| *d = i16::from(first));
         dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
+    }
+}
+
+/// Copies rows of `N` pixels, `stride` apart in `block`, into `out` (`N` apart).
+fn copy_rows<const N: usize>(block: &[u8], stride: usize, out: &mut [i16]) {
+    for (dst, src) in out.chunks_exact_mut(N).zip(block.chunks(stride)) {
+        let (Ok(dst), Some(Ok(src))) = (
+            <&mut [i16; N]>::try_from(dst),
+            src.get(..N).map(<&[u8; N]>::try_from),
+        ) else {
+            return;
+        };
+        *dst = src.map(i16::from);
     }
 }
 

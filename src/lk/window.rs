@@ -197,13 +197,9 @@ pub(crate) fn gather(
             8 => copy_rows::<8>(block, stride, out),
             10 => copy_rows::<10>(block, stride, out),
             12 => copy_rows::<12>(block, stride, out),
-            _ => {
-                for (dst, src) in out.chunks_exact_mut(cols).zip(block.chunks(stride)) {
-                    dst.iter_mut()
-                        .zip(src)
-                        .for_each(|(d, &s)| *d = i16::from(s));
-                }
-            }
+            22 => copy_rows::<22>(block, stride, out),
+            24 => copy_rows::<24>(block, stride, out),
+            _ => copy_any_rows(block, stride, cols, out),
         }
         return;
     }
@@ -229,6 +225,16 @@ pub(crate) fn gather(
             .take(start)
             .for_each(|d| *d = i16::from(first));
         dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
+    }
+}
+
+/// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`cols` apart).
+#[inline(never)]
+fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+    for (dst, src) in out.chunks_exact_mut(cols).zip(block.chunks(stride)) {
+        dst.iter_mut()
+            .zip(src)
+            .for_each(|(d, &s)| *d = i16::from(s));
     }
 }
 

@@ -103,6 +103,31 @@ pub enum Illumination {
     GainBias,
 }
 
+/// Where the template window sits in the previous frame at each pyramid level.
+///
+/// ```
+/// use kestrel::lk::{LkParams, TemplatePlacement};
+/// let fast = LkParams { template: TemplatePlacement::NearestPixel, ..LkParams::default() };
+/// assert_eq!(LkParams::default().template, TemplatePlacement::AtPoint);
+/// assert_ne!(fast, LkParams::default());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TemplatePlacement {
+    /// Centred on the point itself, interpolated between pixels (OpenCV's choice).
+    #[default]
+    AtPoint,
+    /// Centred on the pixel nearest the point, and the displacement of that window is taken as
+    /// the point's. Under locally rigid motion the flow is the same (the window moves by at most
+    /// half a pixel), and the template needs no interpolation: its intensities and derivatives
+    /// come straight from the pyramid level's pixels, which makes each template several times
+    /// cheaper to prepare. Under rotation or zoom the flow half a pixel away differs slightly
+    /// (by 0.01 px for a 2 % zoom), and the window holds other pixels, hence other noise: on
+    /// the scenes of `tests/lk_accuracy.rs` with points between pixels the median error is
+    /// 0.044 px against 0.041 px for [`TemplatePlacement::AtPoint`].
+    NearestPixel,
+}
+
 /// Tracking parameters, with OpenCV's defaults.
 ///
 /// ```
@@ -127,6 +152,8 @@ pub struct LkParams {
     pub min_eigen_threshold: f32,
     /// Brightness model between the frames.
     pub illumination: Illumination,
+    /// Where the template is taken around the point.
+    pub template: TemplatePlacement,
 }
 
 impl Default for LkParams {
@@ -138,6 +165,7 @@ impl Default for LkParams {
             epsilon: 0.01,
             min_eigen_threshold: 1e-4,
             illumination: Illumination::GainBias,
+            template: TemplatePlacement::AtPoint,
         }
     }
 }
@@ -421,14 +449,32 @@ impl LucasKanade {
         estimate: &mut (i32, i32),
         scratch: &mut [i16],
     ) -> (LevelOutcome, i32) {
-        let Some((template, mut j)) = self.template::<L>(prev, scale.centre, scratch) else {
+        let (centre, offset) = match self.params.template {
+            TemplatePlacement::AtPoint => (scale.centre, (0, 0)),
+            TemplatePlacement::NearestPixel => {
+                // The centre lies in the frame, far from the ends of the i32 range.
+                let nearest = |v: i32| v.saturating_add(1 << 15) & !0xFFFF;
+                let (x, y) = (nearest(scale.centre.0), nearest(scale.centre.1));
+                ((x, y), (x - scale.centre.0, y - scale.centre.1))
+            }
+        };
+        let Some((template, mut j)) = self.template::<L>(prev, centre, scratch) else {
             return (LevelOutcome::LowTexture, 0);
         };
-        let outcome = self.iterate(&template, next, estimate, &mut j);
+        // The iterations move the template's window; the point moves with it.
+        let mut window = (
+            estimate.0.saturating_add(offset.0),
+            estimate.1.saturating_add(offset.1),
+        );
+        let outcome = self.iterate(&template, next, &mut window, &mut j);
+        *estimate = (
+            window.0.saturating_sub(offset.0),
+            window.1.saturating_sub(offset.1),
+        );
         if outcome != LevelOutcome::Converged || !scale.finest {
             return (outcome, 0);
         }
-        let origin = WindowOrigin::new(estimate.0, estimate.1, self.params.window / 2);
+        let origin = WindowOrigin::new(window.0, window.1, self.params.window / 2);
         let c = *j.correlations(&template, next, &origin);
         (
             outcome,
@@ -597,11 +643,16 @@ mod tests {
         let mut scratch = [0i16; scratch_len(21)];
         let mut tracked = 0;
         for (window, max_level) in [(3, 0), (7, 1), (9, 2), (9, 3), (21, 3)] {
-            for illumination in [Illumination::GainBias, Illumination::Plain] {
+            let placements = [TemplatePlacement::AtPoint, TemplatePlacement::NearestPixel];
+            let modes = [Illumination::GainBias, Illumination::Plain]
+                .into_iter()
+                .flat_map(|i| placements.map(|t| (i, t)));
+            for (illumination, template) in modes {
                 let lk = LucasKanade::new(LkParams {
                     window,
                     max_level,
                     illumination,
+                    template,
                     ..LkParams::default()
                 })
                 .unwrap();
@@ -616,7 +667,7 @@ mod tests {
                 }
             }
         }
-        assert!(tracked > 1000, "only {tracked} tracked");
+        assert!(tracked > 2000, "only {tracked} tracked");
     }
 
     /// `scratch_len` covers the buffers of both sets of window loops for every window.
@@ -652,19 +703,26 @@ mod tests {
         let next = Pyramid::build(frame(&b), 0, &mut []).unwrap();
         let mut scratch = [0i16; scratch_len(MAX_WINDOW)];
         for window in [31, MAX_WINDOW] {
-            for illumination in [Illumination::GainBias, Illumination::Plain] {
+            let placements = [TemplatePlacement::AtPoint, TemplatePlacement::NearestPixel];
+            let modes = [Illumination::GainBias, Illumination::Plain]
+                .into_iter()
+                .flat_map(|i| placements.map(|t| (i, t)));
+            for (illumination, template) in modes {
                 let lk = LucasKanade::new(LkParams {
                     window,
                     max_level: 0,
                     illumination,
+                    template,
                     ..LkParams::default()
                 })
                 .unwrap();
-                let p = Point::from_f32(80.0, 80.0);
-                let flat = lk.track::<flat::Flat>(&prev, &next, p, None, &mut scratch);
-                let rows = lk.track::<rows::Rows>(&prev, &next, p, None, &mut scratch);
-                assert_eq!(flat, rows, "window {window}");
-                assert!(flat.is_tracked(), "{flat:?}");
+                // On a pixel (the largest samples) and between pixels.
+                for p in [Point::from_f32(80.0, 80.0), Point::from_f32(80.3, 79.6)] {
+                    let flat = lk.track::<flat::Flat>(&prev, &next, p, None, &mut scratch);
+                    let rows = lk.track::<rows::Rows>(&prev, &next, p, None, &mut scratch);
+                    assert_eq!(flat, rows, "window {window} at {p:?}");
+                    assert!(flat.is_tracked(), "{flat:?}");
+                }
             }
         }
     }

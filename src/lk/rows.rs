@@ -27,7 +27,7 @@ use super::correlation::Correlations;
 use super::template::TemplateSums;
 use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
-    WindowOrigin,
+    WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
 use crate::frame::ImageView;
 
@@ -56,11 +56,24 @@ impl Loops for Rows {
     ) -> TemplateSums {
         let w = origin.w.map(i32::from);
         let TemplateOut { intensity, dx, dy } = out;
-        match Source::of(frame, origin, layout.win + 2, source) {
-            Source::Frame(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
-            Source::Gathered(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
+        let side = layout.win + 2;
+        if origin.w == [1 << WEIGHT_BITS, 0, 0, 0] {
+            // On a pixel: the samples are the pixels themselves, read where they lie.
+            let whole = frame.block(origin.x, origin.y, side, side);
+            if let Some(px) = whole {
+                pixel_template(px, frame.stride(), layout, intensity, dx, dy);
+            } else {
+                gather(frame, origin, side, side, source);
+                let px = source.get(..side * side).unwrap_or(&[]);
+                pixel_template(px, side, layout, intensity, dx, dy);
+            }
+        } else {
+            match Source::of(frame, origin, side, source) {
+                Source::Frame(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
+                Source::Gathered(px, s) => sample_patch(&w, px, s, layout, patch, intensity),
+            }
+            derivatives(patch, layout, dx, dy);
         }
-        derivatives(patch, layout, dx, dy);
         for buf in [&mut *intensity, &mut *dx, &mut *dy] {
             clear_padding(layout, buf);
         }
@@ -339,18 +352,140 @@ fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
 
 /// One template row's Scharr derivatives from three patch rows of `win + 2` values.
 ///
-/// Each output reads its 3 x 3 neighbourhood afresh: carrying column sums from one output to
-/// the next would save loads but keeps more values live than a Cortex-M4 has registers.
+/// Separable: each column's vertical smoothing `3 u + 10 m + 3 d` and difference `d - u` are
+/// computed once and carried to the next two outputs, which then need one column of loads each.
 #[inline(never)]
 fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i16]) {
-    let neighbourhoods = up.windows(3).zip(mid.windows(3)).zip(down.windows(3));
-    for ((gx, gy), ((u, m), d)) in dx.iter_mut().zip(dy.iter_mut()).zip(neighbourhoods) {
-        let (&[ul, uc, ur], &[ml, _, mr], &[dl, dc, dr]) = (u, m, d) else {
+    let mut columns = up.iter().zip(mid).zip(down).map(|((&u, &m), &d)| {
+        let [u, m, d] = [u, m, d].map(i32::from);
+        (3 * (u + d) + 10 * m, d - u)
+    });
+    let (Some((mut v0, mut h0)), Some((mut v1, mut h1))) = (columns.next(), columns.next()) else {
+        return;
+    };
+    for ((gx, gy), (v2, h2)) in dx.iter_mut().zip(dy.iter_mut()).zip(columns) {
+        *gx = rescale(v2 - v0);
+        *gy = rescale(3 * (h0 + h2) + 10 * h1);
+        (v0, h0, v1, h1) = (v1, h1, v2, h2);
+    }
+}
+
+/// The template of a window on whole pixels, from the `(win + 2)` square of pixels `px` (rows
+/// `stride` apart) under its patch: intensities are the pixels (grey x 32) and the Scharr sums
+/// of whole pixels are already at the gain of 32, equal to those of [`derivatives`] on the
+/// samples (which are the pixels times 32) without their rounding.
+fn pixel_template<P: Pixel>(
+    px: &[P],
+    stride: usize,
+    layout: &Layout,
+    intensity: &mut [i16],
+    dx: &mut [i16],
+    dy: &mut [i16],
+) {
+    let out = (intensity, dx, dy);
+    // The common window sizes get rows of a known length: unrolled, without bounds checks or
+    // per-row set-up.
+    match layout.win {
+        7 => fixed_pixel_template::<P, 7, 9>(px, stride, layout.pitch, out),
+        9 => fixed_pixel_template::<P, 9, 11>(px, stride, layout.pitch, out),
+        11 => fixed_pixel_template::<P, 11, 13>(px, stride, layout.pitch, out),
+        _ => any_pixel_template(px, stride, layout, out),
+    }
+}
+
+/// The template's rows, as [`pixel_template`], for any window.
+fn any_pixel_template<P: Pixel>(
+    px: &[P],
+    stride: usize,
+    layout: &Layout,
+    (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
+) {
+    let (win, p) = (layout.win, layout.pitch);
+    let rows = px.chunks(stride.max(1));
+    let below = rows.clone().skip(1).zip(rows.clone().skip(2));
+    let outputs = intensity
+        .chunks_exact_mut(p)
+        .zip(dx.chunks_exact_mut(p).zip(dy.chunks_exact_mut(p)));
+    for ((i_row, (dx_row, dy_row)), (up, (mid, down))) in outputs.zip(rows.zip(below)) {
+        let (Some(i_row), Some(dx_row), Some(dy_row)) = (
+            i_row.get_mut(..win),
+            dx_row.get_mut(..win),
+            dy_row.get_mut(..win),
+        ) else {
             continue;
         };
-        let [ul, uc, ur, ml, mr, dl, dc, dr] = [ul, uc, ur, ml, mr, dl, dc, dr].map(i32::from);
-        *gx = rescale(3 * ((ur - ul) + (dr - dl)) + 10 * (mr - ml));
-        *gy = rescale(3 * ((dl - ul) + (dr - ur)) + 10 * (dc - uc));
+        pixel_row(up, mid, down, i_row, dx_row, dy_row);
+    }
+}
+
+/// The template's rows, as [`pixel_template`], for a `W` x `W` window (`S = W + 2` pixels per
+/// patch row). Each row is unrolled; the rows are not, which keeps the code small.
+#[inline(never)]
+fn fixed_pixel_template<P: Pixel, const W: usize, const S: usize>(
+    px: &[P],
+    stride: usize,
+    pitch: usize,
+    (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
+) {
+    let row = |r: usize| -> Option<&[P; S]> {
+        let start = r * stride;
+        px.get(start..start + S)?.try_into().ok()
+    };
+    fn out<const W: usize>(buf: &mut [i16], start: usize) -> Option<&mut [i16; W]> {
+        buf.get_mut(start..start + W)?.try_into().ok()
+    }
+    for r in 0..W {
+        let (Some(up), Some(mid), Some(down)) = (row(r), row(r + 1), row(r + 2)) else {
+            return;
+        };
+        let (Some(i_row), Some(dx_row), Some(dy_row)) = (
+            out::<W>(intensity, r * pitch),
+            out::<W>(dx, r * pitch),
+            out::<W>(dy, r * pitch),
+        ) else {
+            return;
+        };
+        let column = |k: usize| {
+            let [u, m, d]: [i32; 3] = [up[k].into(), mid[k].into(), down[k].into()];
+            (3 * (u + d) + 10 * m, d - u)
+        };
+        let ((mut v0, mut h0), (mut v1, mut h1)) = (column(0), column(1));
+        for k in 0..W {
+            let (v2, h2) = column(k + 2);
+            let m: i32 = mid[k + 1].into();
+            i_row[k] = (m << INTENSITY_BITS) as i16;
+            dx_row[k] = (v2 - v0) as i16;
+            dy_row[k] = (3 * (h0 + h2) + 10 * h1) as i16;
+            (v0, h0, v1, h1) = (v1, h1, v2, h2);
+        }
+    }
+}
+
+/// One template row on whole pixels: intensities and Scharr derivatives, as [`scharr_row`].
+#[inline(never)]
+fn pixel_row<P: Pixel>(
+    up: &[P],
+    mid: &[P],
+    down: &[P],
+    intensity: &mut [i16],
+    dx: &mut [i16],
+    dy: &mut [i16],
+) {
+    let mut columns = up.iter().zip(mid).zip(down).map(|((&u, &m), &d)| {
+        let [u, m, d]: [i32; 3] = [u.into(), m.into(), d.into()];
+        (3 * (u + d) + 10 * m, d - u, m)
+    });
+    let (Some((mut v0, mut h0, _)), Some((mut v1, mut h1, mut m1))) =
+        (columns.next(), columns.next())
+    else {
+        return;
+    };
+    let outputs = intensity.iter_mut().zip(dx.iter_mut().zip(dy.iter_mut()));
+    for ((i, (gx, gy)), (v2, h2, m2)) in outputs.zip(columns) {
+        *i = (m1 << INTENSITY_BITS) as i16;
+        *gx = (v2 - v0) as i16;
+        *gy = (3 * (h0 + h2) + 10 * h1) as i16;
+        (v0, h0, v1, h1, m1) = (v1, h1, v2, h2, m2);
     }
 }
 

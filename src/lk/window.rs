@@ -190,12 +190,16 @@ pub(crate) fn gather(
     out: &mut [i16],
 ) {
     if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
-        // Inside the frame: a plain copy, row by row.
-        let src_rows = block.chunks(frame.stride());
-        for (dst, src) in out.chunks_exact_mut(cols).zip(src_rows) {
-            dst.iter_mut()
-                .zip(src)
-                .for_each(|(d, &s)| *d = i16::from(s));
+        // Inside the frame: a plain copy, row by row; rows of the common windows' lengths
+        // unrolled.
+        let stride = frame.stride();
+        match cols {
+            8 => copy_rows::<8>(block, stride, out),
+            10 => copy_rows::<10>(block, stride, out),
+            12 => copy_rows::<12>(block, stride, out),
+            22 => copy_rows::<22>(block, stride, out),
+            24 => copy_rows::<24>(block, stride, out),
+            _ => copy_any_rows(block, stride, cols, out),
         }
         return;
     }
@@ -221,6 +225,29 @@ pub(crate) fn gather(
             .take(start)
             .for_each(|d| *d = i16::from(first));
         dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
+    }
+}
+
+/// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`cols` apart).
+#[inline(never)]
+fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+    for (dst, src) in out.chunks_exact_mut(cols).zip(block.chunks(stride)) {
+        dst.iter_mut()
+            .zip(src)
+            .for_each(|(d, &s)| *d = i16::from(s));
+    }
+}
+
+/// Copies rows of `N` pixels, `stride` apart in `block`, into `out` (`N` apart).
+fn copy_rows<const N: usize>(block: &[u8], stride: usize, out: &mut [i16]) {
+    for (dst, src) in out.chunks_exact_mut(N).zip(block.chunks(stride)) {
+        let (Ok(dst), Some(Ok(src))) = (
+            <&mut [i16; N]>::try_from(dst),
+            src.get(..N).map(<&[u8; N]>::try_from),
+        ) else {
+            return;
+        };
+        *dst = src.map(i16::from);
     }
 }
 
@@ -468,7 +495,8 @@ mod tests {
     }
 
     /// The two sets of loops agree bit for bit on every value and sum, for windows inside the
-    /// frame, across each edge and corner, and wholly outside it, at many sub-pixel offsets.
+    /// frame, across each edge and corner, and wholly outside it, at many sub-pixel offsets and
+    /// on whole pixels.
     #[test]
     fn flat_and_row_loops_agree() {
         const W: usize = 47;
@@ -482,19 +510,22 @@ mod tests {
                 for cy in (-14..=H as i32 + 12).step_by(3) {
                     for cx in (-14..=W as i32 + 12).step_by(3) {
                         // Sub-pixel offsets cycling through integers, halves and odd fractions.
+                        // And every centre on a whole pixel, where templates take no weights.
                         k = (k * 31 + 7919) & 0xFFFF;
-                        let c = ((cx << 16) + k, (cy << 16) + ((k * 7) & 0xFFFF));
-                        let (f, r) = (
-                            template::<Flat>(&frame, c, win),
-                            template::<Rows>(&frame, c, win),
-                        );
-                        let at = (win, c);
-                        assert_eq!(f.intensity, r.intensity, "{at:?}");
-                        assert_eq!(f.dx, r.dx, "{at:?}");
-                        assert_eq!(f.dy, r.dy, "{at:?}");
-                        assert_eq!(f.sums, r.sums, "{at:?}");
-                        assert_eq!(f.correlations, r.correlations, "{at:?}");
-                        assert_eq!(f.next, r.next, "{at:?}");
+                        let between = ((cx << 16) + k, (cy << 16) + ((k * 7) & 0xFFFF));
+                        for c in [between, (cx << 16, cy << 16)] {
+                            let (f, r) = (
+                                template::<Flat>(&frame, c, win),
+                                template::<Rows>(&frame, c, win),
+                            );
+                            let at = (win, c);
+                            assert_eq!(f.intensity, r.intensity, "{at:?}");
+                            assert_eq!(f.dx, r.dx, "{at:?}");
+                            assert_eq!(f.dy, r.dy, "{at:?}");
+                            assert_eq!(f.sums, r.sums, "{at:?}");
+                            assert_eq!(f.correlations, r.correlations, "{at:?}");
+                            assert_eq!(f.next, r.next, "{at:?}");
+                        }
                     }
                 }
             }

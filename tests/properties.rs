@@ -32,7 +32,9 @@ use kestrel::ego::{
     Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, Ransac, RansacParams,
 };
 use kestrel::frame::ImageView;
-use kestrel::lk::{scratch_len, Illumination, LkParams, LucasKanade, PointTrack, TrackStatus};
+use kestrel::lk::{
+    scratch_len, Illumination, LkParams, LucasKanade, PointTrack, TemplatePlacement, TrackStatus,
+};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::track::{Detector, Track, Tracker, TrackerConfig, TrackerError};
 use kestrel::{Point, Q16};
@@ -325,9 +327,21 @@ fn lk_params() -> impl Strategy<Value = LkParams> {
         prop_oneof![Just(0.0f32), 0.0f32..0.5, Just(1e-6)],
         prop_oneof![Just(0.0f32), 0.0f32..0.05],
         prop_oneof![Just(Illumination::Plain), Just(Illumination::GainBias)],
+        prop_oneof![
+            Just(TemplatePlacement::AtPoint),
+            Just(TemplatePlacement::NearestPixel)
+        ],
     )
         .prop_map(
-            |(window, max_level, max_iterations, epsilon, min_eigen_threshold, illumination)| {
+            |(
+                window,
+                max_level,
+                max_iterations,
+                epsilon,
+                min_eigen_threshold,
+                illumination,
+                template,
+            )| {
                 LkParams {
                     window,
                     max_level,
@@ -335,6 +349,7 @@ fn lk_params() -> impl Strategy<Value = LkParams> {
                     epsilon,
                     min_eigen_threshold,
                     illumination,
+                    template,
                 }
             },
         )

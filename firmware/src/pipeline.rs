@@ -12,7 +12,7 @@ use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
 use kestrel::ego::{CameraError, EgoMotion, OpticalFlowRad, RansacError};
 use kestrel::frame::{ImageError, ImageView};
-use kestrel::lk::{scratch_len, LkParams};
+use kestrel::lk::{scratch_len, LkParams, TemplatePlacement};
 use kestrel::pyramid::Pyramid;
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers, TrackerConfig,
@@ -54,6 +54,7 @@ pub fn tracker_config() -> TrackerConfig {
         lk: LkParams {
             window: WINDOW,
             max_level: MAX_LEVEL,
+            template: TemplatePlacement::NearestPixel,
             ..defaults.lk
         },
         max_tracks: MAX_TRACKS,

@@ -1,0 +1,266 @@
+//! The dense grid, its dominant motion and moving-object boxes on arbitrary frames, settings
+//! and buffer lengths.
+//!
+//! Counts must agree with the nodes, nodes beyond the grid stay untouched, a measured node's
+//! centre plus its flow lies inside the frame, a node without flow has zero flow, fill passes
+//! stay within the limit; the dominant motion is finite; every box lies inside the frame, has
+//! at least the minimum number of nodes and comes largest first, no more boxes than regions.
+
+use super::picture::{Change, Picture};
+use arbitrary::Arbitrary;
+use kestrel::dense::dominant::{DominantMotion, FitParams};
+use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus};
+use kestrel::dense::mask::{mask_words, Structure};
+use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
+use kestrel::dense::regions::{BoxRules, MotionBox};
+use kestrel::dense::DenseError;
+use kestrel::lk::{scratch_len, Illumination, LkParams};
+use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::Point;
+
+#[derive(Arbitrary, Debug)]
+struct Input {
+    prev: Picture,
+    change: Change,
+    other: Option<Picture>,
+    levels: u8,
+    cell: u8,
+    window: u8,
+    max_level: u8,
+    max_iterations: u8,
+    min_eigen_threshold: f32,
+    plain: bool,
+    max_residual: f32,
+    fill_passes: u8,
+    nodes_delta: i8,
+    scratch_delta: i8,
+    fit: (f32, f32, u8),
+    motion: MotionInput,
+}
+
+#[derive(Arbitrary, Debug)]
+struct MotionInput {
+    threshold: f32,
+    include_filled: bool,
+    close: Option<bool>,
+    open: Option<bool>,
+    min_nodes: u32,
+    inset: u8,
+    mask_delta: i8,
+    scratch_delta: i8,
+    boxes: u8,
+}
+
+/// The decoded input, for reading a crash.
+pub fn show(data: &[u8]) -> String {
+    super::show::<Input>(data)
+}
+
+pub fn run(data: &[u8]) {
+    let Some(input) = super::decode::<Input>(data) else {
+        return;
+    };
+    let prev_frame = input.prev.render();
+    let next_frame = match &input.other {
+        Some(other) => other.render(),
+        None => Picture {
+            change: input.change,
+            ..input.prev.clone()
+        }
+        .render(),
+    };
+    let (Some(prev), Some(next)) = (prev_frame.view(), next_frame.view()) else {
+        return;
+    };
+    let levels = usize::from(input.levels % 5);
+    let mut prev_storage = vec![0; pyramid_storage_len(prev.width(), prev.height(), levels)];
+    let mut next_storage = vec![0; pyramid_storage_len(next.width(), next.height(), levels)];
+    let prev = Pyramid::build(prev, levels, &mut prev_storage).expect("pyramid");
+    let next = Pyramid::build(next, levels, &mut next_storage).expect("pyramid");
+    let params = DenseParams {
+        cell: usize::from(input.cell % 40),
+        lk: LkParams {
+            window: usize::from(input.window % 24),
+            max_level: usize::from(input.max_level % 5),
+            max_iterations: u32::from(input.max_iterations % 20),
+            epsilon: 0.01,
+            min_eigen_threshold: input.min_eigen_threshold,
+            illumination: if input.plain {
+                Illumination::Plain
+            } else {
+                Illumination::GainBias
+            },
+        },
+        max_residual: input.max_residual,
+        fill_passes: input.fill_passes % 6,
+    };
+    let Ok(dense) = DenseFlow::new(params) else {
+        return;
+    };
+    let (w, h) = (prev.base().width(), prev.base().height());
+    let len = grid_len(w, h, params.cell);
+    let mut nodes = vec![
+        GridNode::invalid(NodeStatus::Residual);
+        len.saturating_add_signed(input.nodes_delta.into())
+    ];
+    let needed = scratch_len(params.lk.window);
+    let mut scratch = vec![0i16; needed.saturating_add_signed(input.scratch_delta.into())];
+    let summary = match dense.compute(&prev, &next, &mut nodes, &mut scratch) {
+        Ok(summary) => summary,
+        Err(e) => {
+            check_refusal(
+                e,
+                &params,
+                (w, h),
+                &next.base(),
+                nodes.len() < len,
+                scratch.len() < needed,
+            );
+            return;
+        }
+    };
+    let layout = summary.layout;
+    assert_eq!(layout.len(), len);
+    let grid = &nodes[..len];
+    let count = |s: NodeStatus| grid.iter().filter(|n| n.status == s).count();
+    assert_eq!(summary.tracked, count(NodeStatus::Tracked));
+    assert_eq!(summary.filled, count(NodeStatus::Filled));
+    assert!(
+        nodes[len..]
+            .iter()
+            .all(|n| *n == GridNode::invalid(NodeStatus::Residual)),
+        "a node beyond the grid was written"
+    );
+    for (i, node) in grid.iter().enumerate() {
+        check_node(&layout, i, node, params.fill_passes);
+    }
+    let motion = check_dominant(&layout, grid, input.fit);
+    check_motion(&layout, grid, &motion, &input.motion);
+}
+
+/// A refusal names a real problem.
+fn check_refusal(
+    e: DenseError,
+    params: &DenseParams,
+    (w, h): (usize, usize),
+    next: &kestrel::frame::ImageView<'_>,
+    short_nodes: bool,
+    short_scratch: bool,
+) {
+    match e {
+        DenseError::FrameSizeMismatch => assert!((w, h) != (next.width(), next.height())),
+        DenseError::CellTooLarge => assert!(params.cell > w || params.cell > h),
+        DenseError::NodesTooShort => assert!(short_nodes),
+        DenseError::ScratchTooSmall => assert!(short_scratch),
+        DenseError::FrameTooSmall => {}
+        other => panic!("unexpected refusal {other:?}"),
+    }
+}
+
+fn check_node(layout: &GridLayout, index: usize, node: &GridNode, passes: u8) {
+    let (col, row) = layout.node(index);
+    let (x, y) = layout.centre(col, row);
+    assert!(x < layout.width() && y < layout.height());
+    match node.status {
+        NodeStatus::Tracked => {
+            let (dx, dy) = node.flow.to_f32();
+            let (nx, ny) = (x as f32 + dx, y as f32 + dy);
+            let (wm, hm) = ((layout.width() - 1) as f32, (layout.height() - 1) as f32);
+            assert!(
+                (0.0..=wm).contains(&nx) && (0.0..=hm).contains(&ny),
+                "{node:?} at ({x}, {y})"
+            );
+            assert_eq!(node.fill_pass, 0);
+        }
+        NodeStatus::Filled => assert!((1..=passes).contains(&node.fill_pass), "{node:?}"),
+        _ => assert_eq!(
+            (node.flow, node.fill_pass),
+            (Point::default(), 0),
+            "{node:?}"
+        ),
+    }
+}
+
+fn check_dominant(layout: &GridLayout, nodes: &[GridNode], fit: (f32, f32, u8)) -> DominantMotion {
+    let params = FitParams {
+        start_radius: fit.0,
+        inlier_radius: fit.1,
+        iterations: fit.2 % 16,
+    };
+    let positive = |r: f32| r.is_finite() && r > 0.0;
+    let Ok(result) = DominantMotion::fit(layout, nodes, &params) else {
+        assert!(!positive(params.start_radius) || !positive(params.inlier_radius));
+        return DominantMotion::ZERO;
+    };
+    let measured = nodes.iter().filter(|n| n.is_valid()).count();
+    assert_eq!(result.measured, measured);
+    assert!(result.inliers <= measured);
+    assert!(result.spread.is_finite() && result.spread >= 0.0);
+    let m = result.motion;
+    assert!(m.dx.iter().chain(&m.dy).all(|v| v.is_finite()), "{m:?}");
+    m
+}
+
+fn check_motion(
+    layout: &GridLayout,
+    nodes: &[GridNode],
+    camera: &DominantMotion,
+    input: &MotionInput,
+) {
+    let structure = |square3: bool| {
+        if square3 {
+            Structure::Square3
+        } else {
+            Structure::Square2
+        }
+    };
+    let params = MotionParams {
+        threshold: input.threshold,
+        include_filled: input.include_filled,
+        close: input.close.map(structure),
+        open: input.open.map(structure),
+        boxes: BoxRules {
+            min_nodes: input.min_nodes % 8,
+            inset: usize::from(input.inset % 16),
+        },
+    };
+    let Ok(detector) = MotionDetector::new(params) else {
+        assert!(!(params.threshold.is_finite() && params.threshold >= 0.0));
+        return;
+    };
+    let (w, h, cell) = (layout.width(), layout.height(), layout.cell());
+    let mask_len = mask_words(w, h, cell).saturating_add_signed(input.mask_delta.into());
+    let scratch_len =
+        motion_scratch_len(w, h, cell).saturating_add_signed(input.scratch_delta.into());
+    let mut mask = vec![0u32; mask_len];
+    let mut scratch = vec![0u32; scratch_len];
+    let mut boxes = vec![MotionBox::default(); usize::from(input.boxes % 8)];
+    let Ok(summary) = detector.detect(layout, nodes, camera, &mut mask, &mut scratch, &mut boxes)
+    else {
+        assert!(
+            input.mask_delta < 0 || input.scratch_delta < 0,
+            "valid buffers refused"
+        );
+        return;
+    };
+    assert!(summary.moving <= layout.len());
+    assert!(summary.boxes <= boxes.len() && summary.boxes <= summary.regions);
+    for (i, b) in boxes[..summary.boxes].iter().enumerate() {
+        assert!(b.w > 0 && b.h > 0, "{b:?}");
+        assert!(usize::from(b.x) + usize::from(b.w) <= w, "{b:?}");
+        assert!(usize::from(b.y) + usize::from(b.h) <= h, "{b:?}");
+        assert!(b.nodes >= params.boxes.min_nodes.max(1), "{b:?}");
+        if let Some(next) = boxes.get(i + 1).filter(|_| i + 1 < summary.boxes) {
+            assert!(next.nodes <= b.nodes, "boxes not largest first");
+        }
+        let moved = b.in_next_frame(w, h);
+        assert!(
+            usize::from(moved.x) + usize::from(moved.w) <= w,
+            "{moved:?}"
+        );
+        assert!(
+            usize::from(moved.y) + usize::from(moved.h) <= h,
+            "{moved:?}"
+        );
+    }
+}

@@ -14,6 +14,7 @@ use kestrel::dense::mask::{mask_words, Structure};
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
 use kestrel::dense::regions::{BoxRules, MotionBox};
 use kestrel::dense::DenseError;
+use kestrel::lk::TemplatePlacement;
 use kestrel::lk::{scratch_len, Illumination, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
@@ -89,6 +90,13 @@ pub fn run(data: &[u8]) {
                 Illumination::Plain
             } else {
                 Illumination::GainBias
+            },
+            // The top bit of the iteration count, which its modulus ignores: the corpus keeps
+            // its meaning.
+            template: if input.max_iterations & 0x80 == 0 {
+                TemplatePlacement::AtPoint
+            } else {
+                TemplatePlacement::NearestPixel
             },
         },
         max_residual: input.max_residual,

@@ -10,6 +10,7 @@
 use super::picture::{Change, Picture};
 use arbitrary::Arbitrary;
 use kestrel::frame::ImageView;
+use kestrel::lk::TemplatePlacement;
 use kestrel::lk::{scratch_len, Illumination, LkError, LkParams, LucasKanade, PointTrack};
 use kestrel::lk::{TrackStatus, MAX_WINDOW};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, MAX_LEVEL};
@@ -125,6 +126,13 @@ fn lk_params(p: &Params) -> LkParams {
             Illumination::Plain
         } else {
             Illumination::GainBias
+        },
+        // The top bit of the iteration count, which its modulus ignores: the corpus keeps
+        // its meaning.
+        template: if p.max_iterations & 0x80 == 0 {
+            TemplatePlacement::AtPoint
+        } else {
+            TemplatePlacement::NearestPixel
         },
     }
 }

@@ -14,6 +14,7 @@ use kestrel::detect::fast::Fast;
 use kestrel::detect::grid::Grid;
 use kestrel::detect::shi_tomasi::ShiTomasi;
 use kestrel::detect::Corner;
+use kestrel::lk::TemplatePlacement;
 use kestrel::lk::{scratch_len, Illumination, LkParams};
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, Detector, FrameReport, Track, Tracker, TrackerBuffers,
@@ -168,6 +169,13 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
                 Illumination::Plain
             } else {
                 Illumination::GainBias
+            },
+            // The top bit of the iteration count, which its modulus ignores: the corpus keeps
+            // its meaning.
+            template: if c.max_iterations & 0x80 == 0 {
+                TemplatePlacement::AtPoint
+            } else {
+                TemplatePlacement::NearestPixel
             },
         },
         max_tracks: usize::from(c.max_tracks % 20),

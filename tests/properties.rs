@@ -486,6 +486,7 @@ fn tracker_config() -> impl Strategy<Value = TrackerConfig> {
                     max_residual,
                     residual_ratio,
                     min_correlation,
+                    ..TrackerConfig::default()
                 }
             },
         )

@@ -282,7 +282,7 @@ mod tests {
         assert_eq!(checked.max_residual, Some(Q16::from_num(12)));
         let relocate = checked.relocate.unwrap();
         assert_eq!((relocate.every, relocate.from_age), (16, 32));
-        assert_eq!(relocate.max_shift_sq, 65536 * 65536);
+        assert_eq!(relocate.max_shift_sq, 49152 * 49152);
     }
 
     #[test]

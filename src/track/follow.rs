@@ -116,7 +116,9 @@ impl Follow<'_, '_> {
         }
     }
 
-    /// Whether `track`, whose forward step is `step`, passes every gate.
+    /// Whether `track`, whose forward step is `step`, passes every gate, and if so its position
+    /// in the next frame: the step's, or where its anchor was found when it was due for
+    /// relocation.
     fn judge(
         &self,
         track: &Track,

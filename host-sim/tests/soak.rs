@@ -36,7 +36,9 @@
 //! ```
 //!
 //! and the default run (3000 frames) 99.37 % within 1 px (worst window 99.31 %), young tracks
-//! 99.25 %, tracks of 64-511 frames 98.82 %, older 99.85 %, worst error 5.44 px.
+//! 99.25 %, tracks of 64-511 frames 98.82 %, older 99.85 %, worst error 5.44 px. A 100 000-frame
+//! run: 99.36 % (worst window 99.17 %), young tracks 99.18 % (worst window 98.81 %), 64-511
+//! frames 98.45 %, older 99.78 %, worst error 5.58 px, live tracks min 61 / median 82.
 //!
 //! LK follows a window from frame to frame, and its sub-pixel errors add up over hundreds of
 //! frames of rotation and zoom. Without relocation on the birth patch

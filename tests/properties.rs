@@ -501,6 +501,7 @@ fn tracker_config() -> impl Strategy<Value = TrackerConfig> {
                     max_residual,
                     residual_ratio,
                     min_correlation,
+                    ..TrackerConfig::default()
                 }
             },
         )

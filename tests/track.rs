@@ -378,6 +378,7 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     let classic = TrackerConfig {
         residual_ratio: f32::INFINITY,
         min_correlation: -1.0,
+        relocate_every: 0,
         ..TrackerConfig::default()
     };
     let off = occlusion_figures(
@@ -553,6 +554,13 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
                 ..base
             },
             TrackerError::BadMinCorrelation,
+        ),
+        (
+            TrackerConfig {
+                max_relocation: -1.0,
+                ..base
+            },
+            TrackerError::BadMaxRelocation,
         ),
         (
             TrackerConfig {

@@ -8,9 +8,17 @@
 //! 7 x 7 samples 2 px apart, and the tracker drops a track whose patch no longer correlates with
 //! it. The correlation is zero-mean and normalised, so lighting changes do not matter, and the
 //! patch is sparse so that the slow change of a feature under rotation and zoom matters little.
+//!
+//! The same slack lets a window drift: LK's sub-pixel errors add up over hundreds of frames,
+//! and a patch a pixel or two off its feature still correlates above the gate on smooth
+//! texture. So the tracker also locates the anchor itself around an older track's position
+//! now and then ([`Anchor::locate`]: Gauss-Newton on the 49 samples, a gain and a bias) and
+//! moves the track there, which brings it back onto the feature it was born on, or drops the
+//! track when the anchor is not found close by.
 
+use super::follow::distance_sq;
 use crate::frame::ImageView;
-use crate::q16::Point;
+use crate::q16::{Point, Q16};
 
 /// Samples per side of the patch.
 const SIDE: usize = 7;
@@ -57,6 +65,168 @@ impl Anchor {
         // corr >= t  <=>  cov * |cov| >= t * |t| * var_a * var_b, without a square root.
         let (cov, va, vb) = (covariance as f32, var_a as f32, var_b as f32);
         cov * cov.abs() >= min_correlation * min_correlation.abs() * va * vb
+    }
+
+    /// True when every sample of the patch around `position` lies inside `frame`, with
+    /// neighbours to interpolate from.
+    pub(super) fn inside(&self, frame: &ImageView<'_>, position: Point) -> bool {
+        let reach = i32::try_from((SIDE / 2) << SPACING_SHIFT).unwrap_or(i32::MAX);
+        let within = |v: Q16, size: usize| {
+            let last = i32::try_from(size).unwrap_or(i32::MAX).saturating_sub(1);
+            let v = v.to_bits() >> 16;
+            v >= reach && v.saturating_add(reach) < last
+        };
+        within(position.x, frame.width()) && within(position.y, frame.height())
+    }
+
+    /// Where the anchor's feature is in `frame`, searched from `start`: the position whose
+    /// patch best matches the anchor after a gain and a bias, by inverse-compositional
+    /// Gauss-Newton on the patch's 49 samples. `None` when the anchor has no texture in two
+    /// directions, the match has no positive correlation, the search goes farther from `start`
+    /// than the square root of `max_shift_sq` (squared Q16 units), or it has not settled after
+    /// [`LOCATE_ITERATIONS`] steps.
+    pub(super) fn locate(
+        &self,
+        frame: &ImageView<'_>,
+        start: Point,
+        max_shift_sq: i64,
+    ) -> Option<Point> {
+        let template = Template::of(&self.samples)?;
+        let mut at = start;
+        for _ in 0..LOCATE_ITERATIONS {
+            let (dx, dy) = template.step(&patch(frame, at))?;
+            at = Point::new(at.x.saturating_sub(dx), at.y.saturating_sub(dy));
+            if distance_sq(at, start) > max_shift_sq {
+                return None;
+            }
+            let settled = |d: Q16| d.to_bits().saturating_abs() < SETTLED;
+            if settled(dx) && settled(dy) {
+                return Some(at);
+            }
+        }
+        // Still moving: the patch matches along a valley (an edge, a repeated pattern), where
+        // any answer is as good as another.
+        None
+    }
+}
+
+/// Gauss-Newton steps of [`Anchor::locate`] at most: it usually settles in two.
+const LOCATE_ITERATIONS: usize = 6;
+/// A step shorter than this on both axes (Q16: 1/32 px) ends [`Anchor::locate`].
+const SETTLED: i32 = 1 << 11;
+/// The longest step, px: the linearisation holds about that far on the patch's 2 px grid.
+const MAX_STEP: f32 = 1.0;
+
+/// An anchor ready for Gauss-Newton: its samples centred, their gradients and the inverse of
+/// its gradient matrix.
+///
+/// With `n` = 49 samples `T` (grey levels, below 2^8): the centred samples `n T - sum T` are
+/// below 2^14 in magnitude, the gradients (differences of samples two apart, or twice the
+/// difference of neighbours at the patch's edges) below 2^9, and the sums of products of a
+/// gradient with a centred sample below 2^29, of two gradients below 2^24: all exact in `i32`
+/// and `i64`.
+struct Template {
+    centred: [i32; SAMPLES],
+    gradients: [(i32, i32); SAMPLES],
+    /// Sums of the gradients, and of the gradients times the centred samples.
+    sum_g: (i64, i64),
+    sum_gt: (i64, i64),
+    /// `4 / n` times the inverse of the gradient matrix (`xx`, `xy`, `yy`): gradients are per
+    /// 4 px, and residuals `n` times grey levels.
+    inverse: (f32, f32, f32),
+}
+
+impl Template {
+    // Bounded as the type's documentation shows: no operation here can overflow, and indices
+    // stay inside the 7 x 7 patch.
+    #[allow(clippy::arithmetic_side_effects, clippy::indexing_slicing)]
+    fn of(samples: &[u8; SAMPLES]) -> Option<Self> {
+        // SAMPLES is 49.
+        #[allow(clippy::cast_possible_truncation)]
+        let n = SAMPLES as i32;
+        let sum: i32 = samples.iter().map(|&v| i32::from(v)).sum();
+        let centred = samples.map(|v| n * i32::from(v) - sum);
+        let at = |col: usize, row: usize| i32::from(samples[row * SIDE + col]);
+        let gradients: [(i32, i32); SAMPLES] = core::array::from_fn(|k| {
+            let (col, row) = (k % SIDE, k / SIDE);
+            (
+                difference(col, |c| at(c, row)),
+                difference(row, |r| at(col, r)),
+            )
+        });
+        let (mut gx, mut gy, mut gxt, mut gyt) = (0i64, 0i64, 0i64, 0i64);
+        let (mut xx, mut xy, mut yy) = (0i64, 0i64, 0i64);
+        for (&(x, y), &t) in gradients.iter().zip(&centred) {
+            let (x, y, t) = (i64::from(x), i64::from(y), i64::from(t));
+            gx += x;
+            gy += y;
+            gxt += x * t;
+            gyt += y * t;
+            xx += x * x;
+            xy += x * y;
+            yy += y * y;
+        }
+        let det = (xx as f32) * (yy as f32) - (xy as f32) * (xy as f32);
+        // A patch without two independent gradient directions cannot be located.
+        if det.is_nan() || det <= 0.0 {
+            return None;
+        }
+        let scale = 4.0 / (n as f32 * det);
+        Some(Self {
+            centred,
+            gradients,
+            sum_g: (gx, gy),
+            sum_gt: (gxt, gyt),
+            inverse: (yy as f32 * scale, -(xy as f32) * scale, xx as f32 * scale),
+        })
+    }
+
+    /// The Gauss-Newton step, px as Q16, from the patch `now` (grey x 16) to the anchor: the
+    /// position moves by minus the step. `None` when `now` is flat or anti-correlated.
+    ///
+    /// Samples are below 2^12: sums of samples stay below 2^18, of squares below 2^30, of
+    /// products with a centred sample below 2^32 and with a gradient below 2^27.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn step(&self, now: &[u16; SAMPLES]) -> Option<(Q16, Q16)> {
+        let (mut si, mut sii, mut sti, mut sgxi, mut sgyi) = (0i64, 0i64, 0i64, 0i64, 0i64);
+        for ((&v, &t), &(gx, gy)) in now.iter().zip(&self.centred).zip(&self.gradients) {
+            let v = i64::from(v);
+            si += v;
+            sii += v * v;
+            sti += i64::from(t) * v;
+            sgxi += i64::from(gx) * v;
+            sgyi += i64::from(gy) * v;
+        }
+        let n = SAMPLES as i64;
+        // The least-squares gain from the centred patch `n I - sum I` to the centred anchor.
+        let var = n * sii - si * si;
+        if var <= 0 || sti <= 0 {
+            return None;
+        }
+        let gain = sti as f32 / var as f32;
+        // Gradients times residuals, summed: gain * sum G (n I - sum I) - sum G t.
+        let bx = gain * (n * sgxi - si * self.sum_g.0) as f32 - self.sum_gt.0 as f32;
+        let by = gain * (n * sgyi - si * self.sum_g.1) as f32 - self.sum_gt.1 as f32;
+        let (xx, xy, yy) = self.inverse;
+        let clamp = |d: f32| Q16::saturating_from_num(d.clamp(-MAX_STEP, MAX_STEP));
+        let (dx, dy) = (xx * bx + xy * by, xy * bx + yy * by);
+        if !(dx.is_finite() && dy.is_finite()) {
+            return None;
+        }
+        Some((clamp(dx), clamp(dy)))
+    }
+}
+
+/// The derivative at `i` along one row or column of the patch, grey levels per 4 px: the
+/// difference of the samples on either side, or at the patch's edges twice the difference
+/// with the one neighbour.
+// `i < SIDE`: indices stay in the row, and differences of grey levels are small.
+#[allow(clippy::arithmetic_side_effects)]
+fn difference(i: usize, get: impl Fn(usize) -> i32) -> i32 {
+    match i {
+        0 => 2 * (get(1) - get(0)),
+        i if i + 1 >= SIDE => 2 * (get(i) - get(i - 1)),
+        i => get(i + 1) - get(i - 1),
     }
 }
 
@@ -189,6 +359,58 @@ mod tests {
         let anchor = Anchor::capture(&a, Point::from_f32(20.0, 20.0));
         let covered = ImageView::packed(&flat, 40, 40).unwrap();
         assert!(!anchor.matches(&covered, Point::from_f32(20.0, 20.0), -1.0));
+    }
+
+    /// Smooth blobs, as LK and the anchor see them, moved `shift` px to the right.
+    fn blobs(shift: f32) -> [u8; 48 * 48] {
+        core::array::from_fn(|i| {
+            let (x, y) = ((i % 48) as f32 - shift, (i / 48) as f32);
+            let v =
+                128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin();
+            v as u8
+        })
+    }
+
+    #[test]
+    fn the_anchor_is_located_where_the_feature_went() {
+        let (a, b) = (blobs(0.0), blobs(0.7));
+        let born = ImageView::packed(&a, 48, 48).unwrap();
+        let moved = ImageView::packed(&b, 48, 48).unwrap();
+        let anchor = Anchor::capture(&born, Point::from_f32(22.0, 24.0));
+        // Searched from where the feature was, or from the wrong side of where it is.
+        for start in [(22.0, 24.0), (23.3, 23.6)] {
+            let found = anchor.locate(&moved, Point::from_f32(start.0, start.1), 4 << 32);
+            let (x, y) = found.unwrap().to_f32();
+            assert!(
+                (x - 22.7).abs() < 0.1 && (y - 24.0).abs() < 0.1,
+                "{start:?}: {x}, {y}"
+            );
+        }
+        // Not within a limit of 0.5 px.
+        let limited = anchor.locate(&moved, Point::from_f32(22.0, 24.0), 1 << 30);
+        assert_eq!(limited, None);
+        assert!(anchor.inside(&moved, Point::from_f32(22.0, 24.0)));
+        assert!(!anchor.inside(&moved, Point::from_f32(5.5, 24.0)));
+        assert!(!anchor.inside(&moved, Point::from_f32(22.0, 41.0)));
+    }
+
+    #[test]
+    fn flat_anchors_and_stripes_are_not_located() {
+        let flat = [90u8; 48 * 48];
+        let frame = ImageView::packed(&flat, 48, 48).unwrap();
+        let anchor = Anchor::capture(&frame, Point::from_f32(20.0, 20.0));
+        assert_eq!(
+            anchor.locate(&frame, Point::from_f32(20.0, 20.0), i64::MAX),
+            None
+        );
+        // Vertical stripes: no gradient along y.
+        let stripes: [u8; 48 * 48] = core::array::from_fn(|i| ((i % 48) * 5) as u8);
+        let frame = ImageView::packed(&stripes, 48, 48).unwrap();
+        let anchor = Anchor::capture(&frame, Point::from_f32(20.0, 20.0));
+        assert_eq!(
+            anchor.locate(&frame, Point::from_f32(20.0, 20.0), i64::MAX),
+            None
+        );
     }
 
     #[test]

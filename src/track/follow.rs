@@ -63,9 +63,9 @@ impl Follow<'_, '_> {
                 break;
             };
             match self.judge(&track, &anchor, step, max_residual, scratch)? {
-                Ok(()) => {
+                Ok(position) => {
                     let moved = Track {
-                        position: step.position,
+                        position,
                         residual: step.residual,
                         age: track.age.saturating_add(1),
                         ..track
@@ -116,7 +116,9 @@ impl Follow<'_, '_> {
         }
     }
 
-    /// Whether `track`, whose forward step is `step`, passes every gate.
+    /// Whether `track`, whose forward step is `step`, passes every gate, and if so its position
+    /// in the next frame: the step's, or where its anchor was found when it was due for
+    /// relocation.
     fn judge(
         &self,
         track: &Track,
@@ -124,21 +126,34 @@ impl Follow<'_, '_> {
         step: PointTrack,
         max_residual: Option<Q16>,
         scratch: &mut [i16],
-    ) -> Result<Result<(), Rejection>, LkError> {
+    ) -> Result<Result<Point, Rejection>, LkError> {
         if !step.is_tracked() {
             return Ok(Err(Rejection::Lost));
         }
         if max_residual.is_some_and(|max| step.residual > max) {
             return Ok(Err(Rejection::Residual));
         }
+        let mut position = step.position;
+        if let Some(relocate) = self.checked.relocate {
+            let age = track.age.saturating_add(1);
+            let due = age >= relocate.from_age
+                && age.wrapping_add(track.id).checked_rem(relocate.every) == Some(0);
+            let frame = self.next.base();
+            if due && anchor.inside(&frame, position) {
+                match anchor.locate(&frame, position, relocate.max_shift_sq) {
+                    Some(found) if anchor.inside(&frame, found) => position = found,
+                    _ => return Ok(Err(Rejection::Appearance)),
+                }
+            }
+        }
         if let Some(min) = self.checked.min_correlation {
-            if !anchor.matches(&self.next.base(), step.position, min) {
+            if !anchor.matches(&self.next.base(), position, min) {
                 return Ok(Err(Rejection::Appearance));
             }
         }
         // The way back costs as much as the way forth, so it comes last.
         let Some(limit_sq) = self.checked.fb_limit_sq else {
-            return Ok(Ok(()));
+            return Ok(Ok(position));
         };
         // Undo the predicted displacement too, so that the way back starts as close to the
         // answer as the way forth did.
@@ -151,7 +166,7 @@ impl Follow<'_, '_> {
         if !back.is_tracked() || distance_sq(back.position, start) > limit_sq {
             return Ok(Err(Rejection::ForwardBackward));
         }
-        Ok(Ok(()))
+        Ok(Ok(position))
     }
 }
 
@@ -162,7 +177,7 @@ fn offset(p: Point, a: Point, b: Point) -> Point {
 }
 
 /// Squared distance in squared Q16 units, saturating.
-fn distance_sq(a: Point, b: Point) -> i64 {
+pub(super) fn distance_sq(a: Point, b: Point) -> i64 {
     // Differences of two i32 values always fit an i64.
     let dx = i64::from(a.x.to_bits()).saturating_sub(i64::from(b.x.to_bits()));
     let dy = i64::from(a.y.to_bits()).saturating_sub(i64::from(b.y.to_bits()));

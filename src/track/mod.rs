@@ -10,6 +10,9 @@
 //!    median), that no longer looks like the feature it was born on
 //!    ([`TrackerConfig::min_correlation`]), or whose way back misses its start by more than
 //!    [`TrackerConfig::fb_threshold`]: the cheap gates first, the backward LK last;
+//!    every [`TrackerConfig::relocate_every`] frames, a track that is old enough is first moved
+//!    to where its birth appearance matches best nearby, undoing LK's slow drift, or dropped
+//!    when that is farther than [`TrackerConfig::max_relocation`];
 //! 4. when fewer than [`TrackerConfig::refill_below`] tracks are left, detects corners on
 //!    pyramid level [`TrackerConfig::detect_level`] away from the live tracks, spreads them
 //!    with a [`Grid`](crate::detect::grid::Grid), and starts new tracks up to
@@ -129,7 +132,8 @@ pub struct FrameReport {
     pub dropped_fb: usize,
     /// Tracks dropped by the residual gate.
     pub dropped_residual: usize,
-    /// Tracks dropped because they no longer look like the feature they were born on.
+    /// Tracks dropped because they no longer look like the feature they were born on, or
+    /// their birth appearance was not found near them ([`TrackerConfig::max_relocation`]).
     pub dropped_appearance: usize,
     /// Tracks LK lost: out of the frame, too little texture, or not converged.
     pub dropped_lost: usize,
@@ -175,6 +179,8 @@ pub enum TrackerError {
     BadMaxResidual,
     /// `min_correlation` is NaN or above 1.
     BadMinCorrelation,
+    /// `max_relocation` is NaN or negative.
+    BadMaxRelocation,
     /// The frame size is zero or larger than [`MAX_DIMENSION`].
     BadFrameSize,
     /// [`TrackerBuffers::storage`] is shorter than [`tracker_storage_len`].
@@ -212,6 +218,7 @@ impl core::fmt::Display for TrackerError {
                 f.write_str("max residual and residual ratio must be numbers >= 0")
             }
             TrackerError::BadMinCorrelation => f.write_str("min correlation must be a number <= 1"),
+            TrackerError::BadMaxRelocation => f.write_str("max relocation must be a number >= 0"),
             TrackerError::BadFrameSize => f.write_str("frame size must be 1 to 4096 px per side"),
             TrackerError::StorageTooSmall => {
                 f.write_str("tracker storage is smaller than tracker_storage_len")

@@ -193,6 +193,14 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
         max_residual: c.max_residual,
         residual_ratio: c.residual_ratio,
         min_correlation: c.min_correlation,
+        // The quotients the moduli above ignore, so the corpus keeps its meaning: relocation
+        // every 0-12 frames from age 0-12, limits of 0-6 px in quarters, and NaN at the top.
+        relocate_every: u32::from(c.max_tracks / 20),
+        relocate_from_age: u32::from(c.refill_below / 20),
+        max_relocation: match c.detect_level / 10 {
+            25 => f32::NAN,
+            quarters => f32::from(quarters) * 0.25,
+        },
     }
 }
 
@@ -207,6 +215,7 @@ fn check_refusal(e: TrackerError, input: &Input, config: &TrackerConfig) {
         }
         TrackerError::BadMaxTracks => assert!(config.max_tracks == 0 || config.max_tracks > N),
         TrackerError::BadRefillThreshold => assert!(config.refill_below > config.max_tracks),
+        TrackerError::BadMaxRelocation => assert!(config.max_relocation.is_nan()),
         TrackerError::BadFrameSize => panic!("a 1..=64 px frame was refused"),
         _ => {}
     }

@@ -321,14 +321,24 @@ impl LucasKanade {
         guess: Option<Point>,
         scratch: &mut [i16],
     ) -> Result<PointTrack, LkError> {
-        let win = self.params.window;
-        if scratch.len() < scratch_len(win) {
+        self.check_inputs(prev, next, scratch)?;
+        Ok(self.track::<NativeLoops>(prev, next, point, guess, scratch))
+    }
+
+    /// What both entry points require: scratch for the window, and frames of one size.
+    fn check_inputs(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        scratch: &[i16],
+    ) -> Result<(), LkError> {
+        if scratch.len() < scratch_len(self.params.window) {
             return Err(LkError::ScratchTooSmall);
         }
         if !prev.base().same_size(&next.base()) {
             return Err(LkError::FrameSizeMismatch);
         }
-        Ok(self.track::<NativeLoops>(prev, next, point, guess, scratch))
+        Ok(())
     }
 
     /// Tracks every point of `points`, writing one result per point into `out`.
@@ -363,12 +373,7 @@ impl LucasKanade {
         if out.len() != points.len() || guesses.is_some_and(|g| g.len() != points.len()) {
             return Err(LkError::LengthMismatch);
         }
-        if scratch.len() < scratch_len(self.params.window) {
-            return Err(LkError::ScratchTooSmall);
-        }
-        if !prev.base().same_size(&next.base()) {
-            return Err(LkError::FrameSizeMismatch);
-        }
+        self.check_inputs(prev, next, scratch)?;
         for (i, (point, result)) in points.iter().zip(out.iter_mut()).enumerate() {
             let guess = guesses.and_then(|g| g.get(i)).copied();
             *result = self.track::<NativeLoops>(prev, next, *point, guess, scratch);

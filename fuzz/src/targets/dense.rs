@@ -14,8 +14,7 @@ use kestrel::dense::mask::{mask_words, Structure};
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
 use kestrel::dense::regions::{BoxRules, MotionBox};
 use kestrel::dense::DenseError;
-use kestrel::lk::TemplatePlacement;
-use kestrel::lk::{scratch_len, Illumination, LkParams};
+use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
 
@@ -86,18 +85,8 @@ pub fn run(data: &[u8]) {
             max_iterations: u32::from(input.max_iterations % 20),
             epsilon: 0.01,
             min_eigen_threshold: input.min_eigen_threshold,
-            illumination: if input.plain {
-                Illumination::Plain
-            } else {
-                Illumination::GainBias
-            },
-            // The top bit of the iteration count, which its modulus ignores: the corpus keeps
-            // its meaning.
-            template: if input.max_iterations & 0x80 == 0 {
-                TemplatePlacement::AtPoint
-            } else {
-                TemplatePlacement::NearestPixel
-            },
+            illumination: super::illumination(input.plain),
+            template: super::template_placement(input.max_iterations),
         },
         max_residual: input.max_residual,
         fill_passes: input.fill_passes % 6,

@@ -10,8 +10,7 @@
 use super::picture::{Change, Picture};
 use arbitrary::Arbitrary;
 use kestrel::frame::ImageView;
-use kestrel::lk::TemplatePlacement;
-use kestrel::lk::{scratch_len, Illumination, LkError, LkParams, LucasKanade, PointTrack};
+use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade, PointTrack};
 use kestrel::lk::{TrackStatus, MAX_WINDOW};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, MAX_LEVEL};
 use kestrel::{Point, Q16};
@@ -87,7 +86,15 @@ pub fn run(data: &[u8]) {
     let (Some(prev), Some(next)) = (prev_frame.view(), next_frame.view()) else {
         return;
     };
-    let params = lk_params(&input.params);
+    let p = &input.params;
+    let params = super::lk_params(
+        p.window,
+        p.max_level,
+        p.max_iterations,
+        p.epsilon,
+        p.min_eigen_threshold,
+        p.plain,
+    );
     let lk = match LucasKanade::new(params) {
         Ok(lk) => lk,
         Err(e) => {
@@ -113,28 +120,6 @@ pub fn run(data: &[u8]) {
         identical,
     }
     .check(&input);
-}
-
-fn lk_params(p: &Params) -> LkParams {
-    LkParams {
-        window: usize::from(p.window % 70),
-        max_level: usize::from(p.max_level % 10),
-        max_iterations: u32::from(p.max_iterations % 40),
-        epsilon: p.epsilon,
-        min_eigen_threshold: p.min_eigen_threshold,
-        illumination: if p.plain {
-            Illumination::Plain
-        } else {
-            Illumination::GainBias
-        },
-        // The top bit of the iteration count, which its modulus ignores: the corpus keeps
-        // its meaning.
-        template: if p.max_iterations & 0x80 == 0 {
-            TemplatePlacement::AtPoint
-        } else {
-            TemplatePlacement::NearestPixel
-        },
-    }
 }
 
 /// The documented validation, in the documented order.

@@ -6,6 +6,8 @@
 //! The root test includes this module with `#[path]`, so the checks must build on stable Rust
 //! with only `kestrel` and `arbitrary`.
 
+use kestrel::lk::{Illumination, LkParams, TemplatePlacement};
+
 pub mod dense;
 pub mod detect;
 pub mod ego;
@@ -59,6 +61,46 @@ pub const ALL: &[Target] = &[
         show: dense::show,
     },
 ];
+
+/// LK settings over the whole range the API validates and past it (windows up to 69, levels
+/// up to 9, up to 39 iterations), as the lk and track targets draw them.
+fn lk_params(
+    window: u8,
+    max_level: u8,
+    max_iterations: u8,
+    epsilon: f32,
+    min_eigen_threshold: f32,
+    plain: bool,
+) -> LkParams {
+    LkParams {
+        window: usize::from(window % 70),
+        max_level: usize::from(max_level % 10),
+        max_iterations: u32::from(max_iterations % 40),
+        epsilon,
+        min_eigen_threshold,
+        illumination: illumination(plain),
+        template: template_placement(max_iterations),
+    }
+}
+
+/// The illumination model a flag picks.
+fn illumination(plain: bool) -> Illumination {
+    if plain {
+        Illumination::Plain
+    } else {
+        Illumination::GainBias
+    }
+}
+
+/// The template placement, from the top bit of an iteration-count byte: every target's modulus
+/// of the count ignores that bit, so the corpus keeps its meaning.
+fn template_placement(max_iterations: u8) -> TemplatePlacement {
+    if max_iterations & 0x80 == 0 {
+        TemplatePlacement::AtPoint
+    } else {
+        TemplatePlacement::NearestPixel
+    }
+}
 
 /// The decoded input as `{:#?}`.
 fn show<'a, T: arbitrary::Arbitrary<'a> + core::fmt::Debug>(data: &'a [u8]) -> String {

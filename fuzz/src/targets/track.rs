@@ -14,8 +14,7 @@ use kestrel::detect::fast::Fast;
 use kestrel::detect::grid::Grid;
 use kestrel::detect::shi_tomasi::ShiTomasi;
 use kestrel::detect::Corner;
-use kestrel::lk::TemplatePlacement;
-use kestrel::lk::{scratch_len, Illumination, LkParams};
+use kestrel::lk::scratch_len;
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, Detector, FrameReport, Track, Tracker, TrackerBuffers,
     TrackerConfig, TrackerError,
@@ -159,25 +158,14 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
         }),
     };
     TrackerConfig {
-        lk: LkParams {
-            window: usize::from(c.window % 70),
-            max_level: usize::from(c.max_level % 10),
-            max_iterations: u32::from(c.max_iterations % 40),
-            epsilon: c.epsilon,
-            min_eigen_threshold: c.min_eigen_threshold,
-            illumination: if c.plain {
-                Illumination::Plain
-            } else {
-                Illumination::GainBias
-            },
-            // The top bit of the iteration count, which its modulus ignores: the corpus keeps
-            // its meaning.
-            template: if c.max_iterations & 0x80 == 0 {
-                TemplatePlacement::AtPoint
-            } else {
-                TemplatePlacement::NearestPixel
-            },
-        },
+        lk: super::lk_params(
+            c.window,
+            c.max_level,
+            c.max_iterations,
+            c.epsilon,
+            c.min_eigen_threshold,
+            c.plain,
+        ),
         max_tracks: usize::from(c.max_tracks % 20),
         refill_below: usize::from(c.refill_below % 20),
         detector,

@@ -637,6 +637,25 @@ mod tests {
 
     /// Every point of a grid that reaches past each border, tracked with both sets of window
     /// loops: the results agree bit for bit.
+    /// Trackers for `window` and `max_level` in every illumination model and template
+    /// placement.
+    fn every_mode(window: usize, max_level: usize) -> impl Iterator<Item = LucasKanade> {
+        let placements = [TemplatePlacement::AtPoint, TemplatePlacement::NearestPixel];
+        [Illumination::GainBias, Illumination::Plain]
+            .into_iter()
+            .flat_map(move |illumination| placements.map(|template| (illumination, template)))
+            .map(move |(illumination, template)| {
+                LucasKanade::new(LkParams {
+                    window,
+                    max_level,
+                    illumination,
+                    template,
+                    ..LkParams::default()
+                })
+                .unwrap()
+            })
+    }
+
     #[test]
     fn flat_and_row_loops_track_alike() {
         let (a, b) = (scene(0.0, 0.0, 1.0), scene(1.7, -0.8, 1.1));
@@ -648,19 +667,7 @@ mod tests {
         let mut scratch = [0i16; scratch_len(21)];
         let mut tracked = 0;
         for (window, max_level) in [(3, 0), (7, 1), (9, 2), (9, 3), (21, 3)] {
-            let placements = [TemplatePlacement::AtPoint, TemplatePlacement::NearestPixel];
-            let modes = [Illumination::GainBias, Illumination::Plain]
-                .into_iter()
-                .flat_map(|i| placements.map(|t| (i, t)));
-            for (illumination, template) in modes {
-                let lk = LucasKanade::new(LkParams {
-                    window,
-                    max_level,
-                    illumination,
-                    template,
-                    ..LkParams::default()
-                })
-                .unwrap();
+            for lk in every_mode(window, max_level) {
                 for y in (-2..H as i32 + 2).step_by(5) {
                     for x in (-2..W as i32 + 2).step_by(7) {
                         let p = Point::from_bits(x << 16 | 0x2a3b, y << 16 | 0x9c1);
@@ -708,19 +715,7 @@ mod tests {
         let next = Pyramid::build(frame(&b), 0, &mut []).unwrap();
         let mut scratch = [0i16; scratch_len(MAX_WINDOW)];
         for window in [31, MAX_WINDOW] {
-            let placements = [TemplatePlacement::AtPoint, TemplatePlacement::NearestPixel];
-            let modes = [Illumination::GainBias, Illumination::Plain]
-                .into_iter()
-                .flat_map(|i| placements.map(|t| (i, t)));
-            for (illumination, template) in modes {
-                let lk = LucasKanade::new(LkParams {
-                    window,
-                    max_level: 0,
-                    illumination,
-                    template,
-                    ..LkParams::default()
-                })
-                .unwrap();
+            for lk in every_mode(window, 0) {
                 // On a pixel (the largest samples) and between pixels.
                 for p in [Point::from_f32(80.0, 80.0), Point::from_f32(80.3, 79.6)] {
                     let flat = lk.track::<flat::Flat>(&prev, &next, p, None, &mut scratch);

@@ -11,7 +11,7 @@
 //! (host-sim's seeded scenes, which also give the true motion to compare against).
 
 use heapless::FnvIndexMap;
-use host_sim::synth::{FlightPath, FlightSequence, Homography as TrueMotion, SceneSpec};
+use host_sim::synth::{FlightPath, FlightSequence, Homography as Warp, SceneSpec};
 use kestrel::detect::Corner;
 use kestrel::ego::{
     Camera, CameraParams, EgoMotion, FlowRadAccumulator, ModelKind, Ransac, RansacParams,
@@ -151,24 +151,15 @@ fn camera_motion(
 
 /// The largest distance between where the estimated and the true motion send the frame's
 /// corners; `None` when no motion was estimated.
-fn motion_error(motion: &EgoMotion, truth: &TrueMotion) -> Option<f64> {
+fn motion_error(motion: &EgoMotion, truth: &Warp) -> Option<f64> {
     if !motion.is_ok() {
         return None;
     }
-    let corners = [
-        (0.0, 0.0),
-        (WIDTH as f64, 0.0),
-        (0.0, HEIGHT as f64),
-        (WIDTH as f64, HEIGHT as f64),
-    ];
-    corners
-        .iter()
-        .map(|&(x, y)| {
-            let (ex, ey) = motion.model.apply((x as f32, y as f32))?;
-            let (tx, ty) = truth.apply(x, y);
-            Some((f64::from(ex) - tx).hypot(f64::from(ey) - ty))
-        })
-        .try_fold(0.0f64, |worst, e| e.map(|e| worst.max(e)))
+    let m = motion.model.matrix().map(f64::from);
+    let estimate = Warp {
+        m: [[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]],
+    };
+    Some(estimate.distance(truth, WIDTH as f64, HEIGHT as f64))
 }
 
 fn view(pixels: &[u8]) -> Result<ImageView<'_>, String> {

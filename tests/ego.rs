@@ -5,8 +5,8 @@
 //! plane (`H = K Rᵀ (I - t nᵀ / d) K⁻¹`) for the homography tests, and explicit body-frame
 //! geometry for the gyro tests.
 
-use host_sim::synth::rotation::{apply, mul, rotation, transpose, Mat3};
-use host_sim::synth::SplitMix64;
+use host_sim::synth::rotation::{mul, rotation, transpose, Mat3};
+use host_sim::synth::{Homography as Warp, SplitMix64};
 use kestrel::ego::{
     Camera, CameraError, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography,
     ModelKind, OpticalFlowRad, Ransac, RansacParams, Rotation,
@@ -90,7 +90,7 @@ fn make_tracks(
     let mut tracks = Vec::with_capacity(count);
     while tracks.len() < count {
         let p = (rng.uniform(0.0, w), rng.uniform(0.0, h));
-        let q = apply(truth, p);
+        let q = Warp { m: *truth }.apply(p.0, p.1);
         if !(0.0..=w).contains(&q.0) || !(0.0..=h).contains(&q.1) {
             continue;
         }
@@ -115,7 +115,7 @@ fn corner_error(estimate: &Homography, truth: &Mat3, (width, height): (u16, u16)
     let (w, h) = (f64::from(width) - 1.0, f64::from(height) - 1.0);
     let errors = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)].map(|c| {
         let (x, y) = estimate.apply((c.0 as f32, c.1 as f32)).unwrap();
-        let (tx, ty) = apply(truth, c);
+        let (tx, ty) = Warp { m: *truth }.apply(c.0, c.1);
         (f64::from(x) - tx).hypot(f64::from(y) - ty)
     });
     (

@@ -1,12 +1,12 @@
-//! 3x3 matrices for camera geometry: rotations from axis-angle vectors and the homographies
-//! they induce, in `f64` so that ground truth is exact to far below a pixel.
+//! 3x3 matrices for camera geometry: rotations from axis-angle vectors and the products that
+//! turn them into homographies (applied by [`super::Homography`]), in `f64` so that ground
+//! truth is exact to far below a pixel.
 //!
 //! ```
-//! use host_sim::synth::rotation::{apply, mul, rotation, transpose, IDENTITY};
+//! use host_sim::synth::rotation::{mul, rotation, transpose, IDENTITY};
 //! let r = rotation([0.0, 0.0, std::f64::consts::FRAC_PI_2]);
-//! // A quarter turn about z takes x to y, and its transpose undoes it.
-//! let (x, y) = apply(&r, (1.0, 0.0));
-//! assert!(x.abs() < 1e-12 && (y - 1.0).abs() < 1e-12);
+//! // A quarter turn about z takes x to y (its first column is y), and its transpose undoes it.
+//! assert!(r[0][0].abs() < 1e-12 && (r[1][0] - 1.0).abs() < 1e-12);
 //! let back = mul(&transpose(&r), &r);
 //! assert!((0..3).all(|i| (0..3).all(|j| (back[i][j] - IDENTITY[i][j]).abs() < 1e-12)));
 //! ```
@@ -45,14 +45,4 @@ pub fn rotation(w: [f64; 3]) -> Mat3 {
             c * f64::from(u8::from(i == j)) + s * cross[i][j] + (1.0 - c) * axis[i] * axis[j]
         })
     })
-}
-
-/// The image of the point (`x`, `y`) under the homography `h` (no check for points sent to
-/// infinity: callers keep them in front of the camera).
-pub fn apply(h: &Mat3, (x, y): (f64, f64)) -> (f64, f64) {
-    let w = h[2][0] * x + h[2][1] * y + h[2][2];
-    (
-        (h[0][0] * x + h[0][1] * y + h[0][2]) / w,
-        (h[1][0] * x + h[1][1] * y + h[1][2]) / w,
-    )
 }

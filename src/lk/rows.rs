@@ -492,37 +492,7 @@ fn pixel_row<P: Pixel>(
 /// The template's window sums in one pass.
 #[inline(never)]
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    let mut s = TemplateSums::default();
-    let chunks = intensity
-        .chunks(MAX_ROW)
-        .zip(dx.chunks(MAX_ROW).zip(dy.chunks(MAX_ROW)));
-    for (i_chunk, (x_chunk, y_chunk)) in chunks {
-        let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
-        let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
-            (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
-        for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
-            let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
-            gxx += gx * gx;
-            gxy += gx * gy;
-            gyy += gy * gy;
-            si += i;
-            sii = sii.wrapping_add((i * i) as u32);
-            sx += gx;
-            sy += gy;
-            six += i * gx;
-            siy += i * gy;
-        }
-        s.gxx += i64::from(gxx);
-        s.gxy += i64::from(gxy);
-        s.gyy += i64::from(gyy);
-        s.si += i64::from(si);
-        s.sii += i64::from(sii);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-        s.six += i64::from(six);
-        s.siy += i64::from(siy);
-    }
-    s
+    TemplateSums::in_chunks::<MAX_ROW>(intensity, dx, dy)
 }
 
 /// Values summed in 32 bits before widening: as many as the largest window's row (module docs).

@@ -63,6 +63,46 @@ pub(crate) struct TemplateSums {
     pub siy: i64,
 }
 
+impl TemplateSums {
+    /// The sums over a template's intensity and derivative buffers (padding holds zeros),
+    /// accumulated in 32 bits over `CHUNK` values at a time and widened to 64 bits between
+    /// chunks: exact for chunks of up to 64 values at the extremes (tests in `flat` and
+    /// `rows`), and a 32-bit inner loop for either set of window loops.
+    pub(crate) fn in_chunks<const CHUNK: usize>(intensity: &[i16], dx: &[i16], dy: &[i16]) -> Self {
+        let mut s = Self::default();
+        let chunks = intensity
+            .chunks(CHUNK)
+            .zip(dx.chunks(CHUNK).zip(dy.chunks(CHUNK)));
+        for (i_chunk, (x_chunk, y_chunk)) in chunks {
+            let (mut gxx, mut gxy, mut gyy) = (0i32, 0i32, 0i32);
+            let (mut si, mut sii, mut sx, mut sy, mut six, mut siy) =
+                (0i32, 0u32, 0i32, 0i32, 0i32, 0i32);
+            for ((&i, &gx), &gy) in i_chunk.iter().zip(x_chunk).zip(y_chunk) {
+                let (i, gx, gy) = (i32::from(i), i32::from(gx), i32::from(gy));
+                gxx += gx * gx;
+                gxy += gx * gy;
+                gyy += gy * gy;
+                si += i;
+                sii = sii.wrapping_add((i * i) as u32);
+                sx += gx;
+                sy += gy;
+                six += i * gx;
+                siy += i * gy;
+            }
+            s.gxx += i64::from(gxx);
+            s.gxy += i64::from(gxy);
+            s.gyy += i64::from(gyy);
+            s.si += i64::from(si);
+            s.sii += i64::from(sii);
+            s.sx += i64::from(sx);
+            s.sy += i64::from(sy);
+            s.six += i64::from(six);
+            s.siy += i64::from(siy);
+        }
+        s
+    }
+}
+
 /// Window sums that involve the next frame `J`: `ΣJ`, `ΣJI` (gain and bias only), `ΣJ·Ix`,
 /// `ΣJ·Iy`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -38,14 +38,21 @@ pub fn run(meter: &Meter, pipeline: &mut Pipeline) {
         }
     };
     let points = grid();
+    // Where a track's constant-velocity prediction puts each point: the scene's motion.
+    let motion = Point::from_bits(
+        millipx_to_q16(MOTION_MILLIPX.0),
+        millipx_to_q16(MOTION_MILLIPX.1),
+    );
+    let predicted = points.map(|p| Point::new(p.x + motion.x, p.y + motion.y));
     let mut tracks = [PointTrack::default(); POINTS];
-    for (name, params) in variants() {
+    for (name, params, predict) in variants() {
+        let guesses = predict.then_some(&predicted[..]);
         let Ok(lk) = LucasKanade::new(params) else {
             hprintln!("error profile: variant {} refused", name);
             continue;
         };
         let (result, ticks) =
-            meter.measure(|| lk.track_points(&prev, &next, &points, None, &mut tracks, scratch));
+            meter.measure(|| lk.track_points(&prev, &next, &points, guesses, &mut tracks, scratch));
         if let Err(e) = result {
             hprintln!("error profile: variant {}: {:?}", name, e);
             continue;
@@ -68,8 +75,9 @@ pub fn run(meter: &Meter, pipeline: &mut Pipeline) {
     }
 }
 
-/// The budget's LK settings and variants of them.
-fn variants() -> [(&'static str, LkParams); 8] {
+/// The budget's LK settings and variants of them, and whether each starts from the
+/// prediction.
+fn variants() -> [(&'static str, LkParams, bool); 9] {
     let budget = tracker_config().lk;
     // With epsilon 0 every point runs exactly its iteration limit at the single level.
     let one_level = LkParams {
@@ -82,16 +90,25 @@ fn variants() -> [(&'static str, LkParams); 8] {
         ..one_level
     };
     [
-        ("one_iteration", iterations(1)),
-        ("two_iterations", iterations(2)),
-        ("three_iterations", iterations(3)),
-        ("budget", budget),
+        ("one_iteration", iterations(1), false),
+        ("two_iterations", iterations(2), false),
+        ("three_iterations", iterations(3), false),
+        ("budget", budget, false),
+        (
+            "level_0_predicted",
+            LkParams {
+                max_level: 0,
+                ..budget
+            },
+            true,
+        ),
         (
             "plain_illumination",
             LkParams {
                 illumination: Illumination::Plain,
                 ..budget
             },
+            false,
         ),
         (
             "window_7",
@@ -99,6 +116,7 @@ fn variants() -> [(&'static str, LkParams); 8] {
                 window: 7,
                 ..budget
             },
+            false,
         ),
         (
             "max_level_1",
@@ -106,6 +124,7 @@ fn variants() -> [(&'static str, LkParams); 8] {
                 max_level: 1,
                 ..budget
             },
+            false,
         ),
         (
             "epsilon_0.03",
@@ -113,6 +132,7 @@ fn variants() -> [(&'static str, LkParams); 8] {
                 epsilon: 0.03,
                 ..budget
             },
+            false,
         ),
     ]
 }

@@ -309,6 +309,23 @@ impl LucasKanade {
         &self.params
     }
 
+    /// The same tracker with its search starting at pyramid level `level` at the coarsest
+    /// (and never coarser than its own `max_level`). When a point's motion is already known to
+    /// within a pixel or so (predicted from its last step, or from a gyro), the coarse levels
+    /// have nothing left to find and each one skipped saves a template and its iterations.
+    ///
+    /// ```
+    /// use kestrel::lk::{LkParams, LucasKanade};
+    /// let lk = LucasKanade::new(LkParams { max_level: 2, ..LkParams::default() }).unwrap();
+    /// assert_eq!(lk.with_max_level(0).params().max_level, 0);
+    /// assert_eq!(lk.with_max_level(5).params().max_level, 2);
+    /// ```
+    pub fn with_max_level(&self, level: usize) -> Self {
+        let mut lk = *self;
+        lk.params.max_level = level.min(self.params.max_level);
+        lk
+    }
+
     /// Tracks one point from `prev` to `next`.
     ///
     /// `guess` is an optional estimate of the point's position in `next` (for example predicted

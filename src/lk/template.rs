@@ -284,19 +284,29 @@ impl<'s, L: Loops> Template<'s, L> {
             Illumination::Plain => 0,
             Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
         };
-        let mut total: i64 = 0;
+        let mut total: u64 = 0;
         let rows = self.layout.rows(self.buffers.intensity);
         let rows = rows.zip(self.layout.rows(j));
         // The gain is at most 2^18 and I at most 8160, J at most 8160: J 2^16 (< 2^29) minus
-        // a I (< 2^31) is exact in 32 bits; the bias, an average of such values, is not
-        // subtracted until 64 bits.
-        let gain = gain as i32;
+        // a I (< 2^31) is exact in 32 bits, and so is the bias, an average of such values;
+        // their distance fits 32 bits unsigned, and a row of at most 63 of them 38 bits.
+        let (gain, bias) = (
+            gain as i32,
+            bias.clamp(i64::from(i32::MIN), i64::from(i32::MAX)),
+        );
+        let bias = bias as i32;
         for (i_row, j_row) in rows.take(self.layout.win) {
-            for (&i, &jv) in i_row.iter().zip(j_row) {
-                let corrected = (i32::from(jv) << 16) - gain * i32::from(i);
-                total += (i64::from(corrected) - bias).abs();
-            }
+            let row: u64 = i_row
+                .iter()
+                .zip(j_row)
+                .map(|(&i, &jv)| {
+                    let corrected = (i32::from(jv) << 16) - gain * i32::from(i);
+                    u64::from(corrected.abs_diff(bias))
+                })
+                .sum();
+            total += row;
         }
+        let total = total as i64;
         // Drop the 5 intensity bits: grey levels, Q16.
         let mean = total / (n << INTENSITY_BITS);
         mean.min(i32::MAX as i64) as i32

@@ -273,6 +273,18 @@ fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
     let (x, y) = (position.x.to_bits(), position.y.to_bits());
     let weights = Bilinear::new(x, y);
     let (x0, y0) = (x >> 16, y >> 16);
+    // Most patches lie wholly in the frame: read their pixels in place, without clamping.
+    let reach = HALF << SPACING_SHIFT;
+    let span = (SIDE - 1) << SPACING_SHIFT;
+    let corner = (x0.saturating_sub(reach), y0.saturating_sub(reach));
+    let block = frame.block(corner.0 as isize, corner.1 as isize, span + 2, span + 2);
+    if let Some(block) = block {
+        let stride = frame.stride();
+        return core::array::from_fn(|i| {
+            let (col, row) = ((i % SIDE) << SPACING_SHIFT, (i / SIDE) << SPACING_SHIFT);
+            weights.sample_block(block, row * stride + col, stride)
+        });
+    }
     core::array::from_fn(|i| {
         let at = |v: usize| i32::try_from(v).unwrap_or(0) - HALF;
         let (col, row) = (at(i % SIDE), at(i / SIDE));
@@ -299,6 +311,23 @@ impl Bilinear {
         }
     }
 
+    /// The block between its pixels `at` and `at + stride + 1`, grey x 16, as
+    /// [`Bilinear::sample`].
+    #[allow(clippy::arithmetic_side_effects)]
+    fn sample_block(&self, block: &[u8], at: usize, stride: usize) -> u16 {
+        let px = |k: usize| u32::from(block.get(k).copied().unwrap_or(0));
+        let below = at.saturating_add(stride);
+        let top = px(at) * (256 - self.fx) + px(at.saturating_add(1)) * self.fx;
+        let bottom = px(below) * (256 - self.fx) + px(below.saturating_add(1)) * self.fx;
+        self.round(top * (256 - self.fy) + bottom * self.fy)
+    }
+
+    /// A sum of weighted pixels (below 2^24, grey x 2^16) rounded to grey x 16.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn round(&self, value: u32) -> u16 {
+        u16::try_from((value + (1 << 11)) >> 12).unwrap_or(u16::MAX)
+    }
+
     /// The frame between pixels (`x`, `y`) and (`x + 1`, `y + 1`), edges repeated, grey x 16.
     // Weights are below 2^8 and grey levels below 2^8: every sum stays below 2^24.
     #[allow(clippy::arithmetic_side_effects)]
@@ -307,9 +336,7 @@ impl Bilinear {
         let (x1, y1) = (x.saturating_add(1), y.saturating_add(1));
         let top = px(x, y) * (256 - self.fx) + px(x1, y) * self.fx;
         let bottom = px(x, y1) * (256 - self.fx) + px(x1, y1) * self.fx;
-        let value = top * (256 - self.fy) + bottom * self.fy;
-        // value < 2^24: grey x 2^16, rounded to grey x 16.
-        u16::try_from((value + (1 << 11)) >> 12).unwrap_or(u16::MAX)
+        self.round(top * (256 - self.fy) + bottom * self.fy)
     }
 }
 

@@ -112,6 +112,29 @@ pub struct TrackerConfig {
     /// its position (or found only along an edge, where the search does not settle) is
     /// dropped as no longer looking like its feature. `f32::INFINITY` sets no limit.
     pub max_relocation: f32,
+    /// Without a caller's prediction, each track's search starts where its latest step's
+    /// displacement predicts (constant velocity) instead of at its position. At a flight
+    /// controller's frame rates the motion changes little between frames, so the prediction
+    /// is usually within a tenth of a pixel and LK converges in one or two iterations.
+    pub constant_velocity: bool,
+    /// Reach of the finest level, px: a track whose latest step landed within this distance
+    /// of its prediction ([`super::Track::prediction_error`]) is searched on pyramid level 0
+    /// only, within twice this from level 1, and so on up to `lk.max_level`; a track without
+    /// a prediction on the whole pyramid. A search that fails, or lands more than twice its
+    /// starting level's reach from its start, is repeated on the whole pyramid. Every level
+    /// skipped saves a template and its iterations. 0 always searches the whole pyramid.
+    pub fine_search: f32,
+    /// Forward-backward schedule, frames: the backward check runs on every track at least
+    /// once in this many frames (tracks take turns by id), and on every step that looks
+    /// doubtful: a track's first step, a step that lands more than
+    /// [`TrackerConfig::fb_doubt`] from its prediction, and one whose search fell back on
+    /// the whole pyramid. A step that agrees with its track's own motion is rarely wrong, and
+    /// the way back costs as much as the way forth. 1 checks every step.
+    pub fb_every: u32,
+    /// Distance from its prediction, px, beyond which a step is doubtful and checked
+    /// forward-backward (see [`TrackerConfig::fb_every`]). `f32::INFINITY` leaves only the
+    /// first steps, the fallbacks and the schedule.
+    pub fb_doubt: f32,
 }
 
 impl Default for TrackerConfig {
@@ -143,6 +166,10 @@ impl Default for TrackerConfig {
             relocate_every: 16,
             relocate_from_age: 32,
             max_relocation: 0.75,
+            constant_velocity: true,
+            fine_search: 1.0,
+            fb_every: 4,
+            fb_doubt: 0.25,
         }
     }
 }
@@ -205,6 +232,20 @@ impl TrackerConfig {
                 let bits = i64::from(limit.to_bits());
                 bits.saturating_mul(bits)
             });
+        let fine_search = match gate(self.fine_search).ok_or(TrackerError::BadFineSearch)? {
+            Some(reach) if reach == Q16::ZERO => None,
+            Some(reach) => Some(reach),
+            None => Some(Q16::MAX),
+        };
+        if self.fb_every == 0 {
+            return Err(TrackerError::BadFbSchedule);
+        }
+        let fb_doubt_sq = gate(self.fb_doubt)
+            .ok_or(TrackerError::BadFbThreshold)?
+            .map_or(i64::MAX, |limit| {
+                let bits = i64::from(limit.to_bits());
+                bits.saturating_mul(bits)
+            });
         let relocate = (self.relocate_every > 0).then_some(Relocate {
             every: self.relocate_every,
             from_age: self.relocate_from_age,
@@ -218,6 +259,10 @@ impl TrackerConfig {
             max_residual,
             residual_ratio,
             min_correlation,
+            constant_velocity: self.constant_velocity,
+            fine_search,
+            fb_every: self.fb_every,
+            fb_doubt_sq,
         })
     }
 }
@@ -251,6 +296,14 @@ pub(super) struct Checked {
     pub min_correlation: Option<f32>,
     /// Relocation; `None` when off.
     pub relocate: Option<Relocate>,
+    /// Whether a track's latest displacement predicts its next.
+    pub constant_velocity: bool,
+    /// The finest level's reach; `None` when every search takes the whole pyramid.
+    pub fine_search: Option<Q16>,
+    /// The forward-backward schedule, frames (at least 1).
+    pub fb_every: u32,
+    /// The doubt distance squared, in squared Q16 units.
+    pub fb_doubt_sq: i64,
 }
 
 /// When tracks are relocated on their anchor, and how far they may move.

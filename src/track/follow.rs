@@ -29,6 +29,19 @@ pub(super) struct Follow<'p, 'f> {
     pub predict: Option<&'p dyn Fn(Point) -> Point>,
 }
 
+/// One track's forward step and how it was searched.
+#[derive(Debug, Clone, Copy, Default)]
+struct Forward {
+    step: PointTrack,
+    /// Where the search started in the next frame, when anything predicted it.
+    guess: Option<Point>,
+    /// The coarsest pyramid level searched.
+    top: usize,
+    /// True when the search started on a finer level and had to be repeated on the whole
+    /// pyramid.
+    fell_back: bool,
+}
+
 impl Follow<'_, '_> {
     /// Moves every track that passes the gates into the next frame and drops the others (with
     /// their anchors), keeping the order.
@@ -40,34 +53,25 @@ impl Follow<'_, '_> {
         report: &mut FrameReport,
     ) -> Result<(), LkError> {
         // Forwards first, for every track: the residual gate needs the frame's median.
-        let mut forward: Vec<PointTrack, N> = Vec::new();
-        for track in tracks.iter() {
-            let guess = self.predict.map(|predict| predict(track.position));
-            let step = self.checked.lk.track_point(
-                self.prev,
-                self.next,
-                track.position,
-                guess,
-                scratch,
-            )?;
-            // Cannot fail: one step per track, and both hold at most N.
-            let _ = forward.push(step);
-        }
+        let forward = self.forward_all::<N>(tracks, scratch)?;
         let max_residual = self.residual_limit::<N>(&forward);
 
         let mut kept = 0;
         for i in 0..tracks.len() {
-            let (Some(&track), Some(&step), Some(&anchor)) =
+            let (Some(&track), Some(&fwd), Some(&anchor)) =
                 (tracks.get(i), forward.get(i), anchors.get(i))
             else {
                 break;
             };
-            match self.judge(&track, &anchor, step, max_residual, scratch)? {
+            match self.judge(&track, &anchor, &fwd, max_residual, scratch)? {
                 Ok(position) => {
+                    let step = fwd.step.position;
                     let moved = Track {
                         position,
-                        residual: step.residual,
+                        residual: fwd.step.residual,
                         age: track.age.saturating_add(1),
+                        velocity: offset(step, Point::default(), track.position),
+                        prediction_error: distance(step, fwd.guess.unwrap_or(track.position)),
                         ..track
                     };
                     if let (Some(t), Some(a)) = (tracks.get_mut(kept), anchors.get_mut(kept)) {
@@ -94,14 +98,123 @@ impl Follow<'_, '_> {
         Ok(())
     }
 
+    /// The forward steps of every track, in order. Tracks with a history go first; the
+    /// median of their displacements (the frame's motion) then seeds the search of the new
+    /// tracks, which have none. In a frame of new tracks only, the first few are searched on
+    /// the whole pyramid and seed the others.
+    fn forward_all<const N: usize>(
+        &self,
+        tracks: &[Track],
+        scratch: &mut [i16],
+    ) -> Result<Vec<Forward, N>, LkError> {
+        let mut forward: Vec<Forward, N> = Vec::new();
+        let mut motion = FrameMotion::<N>::default();
+        for track in tracks {
+            let step = match self.guess(track) {
+                Some(guess) => {
+                    let step = self.forward(track, Some(guess), track.prediction_error, scratch)?;
+                    motion.add(track, &step);
+                    step
+                }
+                // Searched in the second pass.
+                None => Forward::default(),
+            };
+            // Cannot fail: one step per track, and both hold at most N.
+            let _ = forward.push(step);
+        }
+        let seeds = self.checked.constant_velocity;
+        let mut seed = motion.median().filter(|_| seeds);
+        for (track, step) in tracks.iter().zip(forward.iter_mut()) {
+            if self.guess(track).is_some() {
+                continue;
+            }
+            *step = match seed {
+                Some(velocity) => {
+                    let guess = offset(track.position, velocity, Point::default());
+                    self.forward(track, Some(guess), Q16::ZERO, scratch)?
+                }
+                None => {
+                    let step = self.forward(track, None, Q16::MAX, scratch)?;
+                    motion.add(track, &step);
+                    seed = motion.median().filter(|_| seeds);
+                    step
+                }
+            };
+        }
+        Ok(forward)
+    }
+
+    /// Where `track`'s search starts: the caller's prediction, else its latest displacement
+    /// repeated ([`super::TrackerConfig::constant_velocity`]) once it has one.
+    fn guess(&self, track: &Track) -> Option<Point> {
+        match self.predict {
+            Some(predict) => Some(predict(track.position)),
+            None if self.checked.constant_velocity && track.age > 0 => {
+                Some(offset(track.position, track.velocity, Point::default()))
+            }
+            None => None,
+        }
+    }
+
+    /// The forward step of `track` from `guess`, whose expected error is `expected`: from the
+    /// coarsest level that error calls for, and again on the whole pyramid when that search
+    /// fails or lands beyond the reach of the level it started on.
+    fn forward(
+        &self,
+        track: &Track,
+        guess: Option<Point>,
+        expected: Q16,
+        scratch: &mut [i16],
+    ) -> Result<Forward, LkError> {
+        let lk = &self.checked.lk;
+        let full = lk.params().max_level;
+        let start = guess.and(self.checked.fine_search).map(|reach| {
+            let mut level = 0;
+            let mut reach = reach;
+            while level < full && expected > reach {
+                level = level.saturating_add(1);
+                reach = reach.saturating_mul_int(2);
+            }
+            (level, reach)
+        });
+        if let Some((top, reach)) = start.filter(|&(top, _)| top < full) {
+            let step = lk.with_max_level(top).track_point(
+                self.prev,
+                self.next,
+                track.position,
+                guess,
+                scratch,
+            )?;
+            let landed_near = guess.is_some_and(|g| {
+                let limit = i64::from(reach.saturating_mul_int(2).to_bits());
+                distance_sq(step.position, g) <= limit.saturating_mul(limit)
+            });
+            if step.is_tracked() && landed_near {
+                return Ok(Forward {
+                    step,
+                    guess,
+                    top,
+                    fell_back: false,
+                });
+            }
+        }
+        let step = lk.track_point(self.prev, self.next, track.position, guess, scratch)?;
+        Ok(Forward {
+            step,
+            guess,
+            top: full,
+            fell_back: start.is_some_and(|(top, _)| top < full),
+        })
+    }
+
     /// The residual gate of this frame: the absolute limit, or the ratio times the median
     /// residual of the tracked steps (at least one grey level) when that is lower.
-    fn residual_limit<const N: usize>(&self, steps: &[PointTrack]) -> Option<Q16> {
+    fn residual_limit<const N: usize>(&self, steps: &[Forward]) -> Option<Q16> {
         let relative = self.checked.residual_ratio.and_then(|ratio| {
             let mut residuals: Vec<Q16, N> = steps
                 .iter()
-                .filter(|s| s.is_tracked())
-                .map(|s| s.residual)
+                .filter(|s| s.step.is_tracked())
+                .map(|s| s.step.residual)
                 .collect();
             let middle = residuals.len() / 2;
             if residuals.is_empty() {
@@ -116,17 +229,18 @@ impl Follow<'_, '_> {
         }
     }
 
-    /// Whether `track`, whose forward step is `step`, passes every gate, and if so its position
+    /// Whether `track`, whose forward step is `fwd`, passes every gate, and if so its position
     /// in the next frame: the step's, or where its anchor was found when it was due for
     /// relocation.
     fn judge(
         &self,
         track: &Track,
         anchor: &Anchor,
-        step: PointTrack,
+        fwd: &Forward,
         max_residual: Option<Q16>,
         scratch: &mut [i16],
     ) -> Result<Result<Point, Rejection>, LkError> {
+        let step = fwd.step;
         if !step.is_tracked() {
             return Ok(Err(Rejection::Lost));
         }
@@ -151,22 +265,81 @@ impl Follow<'_, '_> {
                 return Ok(Err(Rejection::Appearance));
             }
         }
-        // The way back costs as much as the way forth, so it comes last.
+        // The way back costs as much as the way forth, so it comes last, and only when due.
         let Some(limit_sq) = self.checked.fb_limit_sq else {
             return Ok(Ok(position));
         };
+        if !self.backward_due(track, fwd) {
+            return Ok(Ok(position));
+        }
         // Undo the predicted displacement too, so that the way back starts as close to the
-        // answer as the way forth did.
+        // answer as the way forth did; and search as many levels as the way forth did.
         let start = track.position;
-        let back_guess = self
-            .predict
-            .map(|predict| offset(step.position, start, predict(start)));
-        let lk = &self.checked.lk;
+        let back_guess = fwd.guess.map(|guess| offset(step.position, start, guess));
+        let lk = self.checked.lk.with_max_level(fwd.top);
         let back = lk.track_point(self.next, self.prev, step.position, back_guess, scratch)?;
         if !back.is_tracked() || distance_sq(back.position, start) > limit_sq {
             return Ok(Err(Rejection::ForwardBackward));
         }
         Ok(Ok(position))
+    }
+
+    /// Whether the forward step `fwd` of `track` gets the backward check: when its turn comes
+    /// (see [`super::TrackerConfig::fb_every`]), or when it looks doubtful.
+    fn backward_due(&self, track: &Track, fwd: &Forward) -> bool {
+        let checked = self.checked;
+        let turn = track
+            .age
+            .wrapping_add(track.id)
+            .checked_rem(checked.fb_every)
+            == Some(0);
+        let strays = fwd
+            .guess
+            .is_none_or(|g| distance_sq(fwd.step.position, g) > checked.fb_doubt_sq);
+        turn || track.age == 0 || fwd.fell_back || strays
+    }
+}
+
+/// The displacements of the steps tracked so far in a frame, whose median stands for the
+/// frame's motion.
+struct FrameMotion<const N: usize> {
+    dx: Vec<i32, N>,
+    dy: Vec<i32, N>,
+}
+
+impl<const N: usize> Default for FrameMotion<N> {
+    fn default() -> Self {
+        Self {
+            dx: Vec::new(),
+            dy: Vec::new(),
+        }
+    }
+}
+
+impl<const N: usize> FrameMotion<N> {
+    /// Steps a median needs before it seeds other tracks.
+    const ENOUGH: usize = 5;
+
+    fn add(&mut self, track: &Track, step: &Forward) {
+        if step.step.is_tracked() {
+            let d = offset(step.step.position, Point::default(), track.position);
+            // Both hold at most N, one entry per track.
+            let _ = self.dx.push(d.x.to_bits());
+            let _ = self.dy.push(d.y.to_bits());
+        }
+    }
+
+    /// The median displacement, once [`Self::ENOUGH`] steps are in.
+    fn median(&mut self) -> Option<Point> {
+        if self.dx.len() < Self::ENOUGH {
+            return None;
+        }
+        let middle = |values: &mut Vec<i32, N>| {
+            let mid = values.len() / 2;
+            let (_, &mut m, _) = values.select_nth_unstable(mid);
+            m
+        };
+        Some(Point::from_bits(middle(&mut self.dx), middle(&mut self.dy)))
     }
 }
 
@@ -174,6 +347,13 @@ impl Follow<'_, '_> {
 fn offset(p: Point, a: Point, b: Point) -> Point {
     let shift = |p: Q16, a: Q16, b: Q16| p.saturating_add(a.saturating_sub(b));
     Point::new(shift(p.x, a.x, b.x), shift(p.y, a.y, b.y))
+}
+
+/// Distance in px, saturating.
+fn distance(a: Point, b: Point) -> Q16 {
+    // The root of a squared Q16 distance is Q16; saturated squares give Q16::MAX.
+    let root = distance_sq(a, b).unsigned_abs().isqrt();
+    Q16::from_bits(i32::try_from(root).unwrap_or(i32::MAX))
 }
 
 /// Squared distance in squared Q16 units, saturating.

@@ -112,6 +112,14 @@ pub struct Track {
     pub residual: Q16,
     /// Index of the frame it was detected in.
     pub born: u32,
+    /// Displacement of the latest step, px (zero on its first frame). Without a caller's
+    /// prediction, the next step's search starts this far from the track's position
+    /// ([`TrackerConfig::constant_velocity`]).
+    pub velocity: Point,
+    /// How far the latest step landed from where its search started (its prediction, or its
+    /// old position without one), px; [`Q16::MAX`] on its first frame. It decides how coarse
+    /// a pyramid level the next search needs ([`TrackerConfig::fine_search`]).
+    pub prediction_error: Q16,
 }
 
 /// What happened to the tracks in one frame.
@@ -181,6 +189,10 @@ pub enum TrackerError {
     BadMinCorrelation,
     /// `max_relocation` is NaN or negative.
     BadMaxRelocation,
+    /// `fine_search` is NaN or negative.
+    BadFineSearch,
+    /// `fb_every` is 0.
+    BadFbSchedule,
     /// The frame size is zero or larger than [`MAX_DIMENSION`].
     BadFrameSize,
     /// [`TrackerBuffers::storage`] is shorter than [`tracker_storage_len`].
@@ -219,6 +231,10 @@ impl core::fmt::Display for TrackerError {
             }
             TrackerError::BadMinCorrelation => f.write_str("min correlation must be a number <= 1"),
             TrackerError::BadMaxRelocation => f.write_str("max relocation must be a number >= 0"),
+            TrackerError::BadFineSearch => f.write_str("fine search reach must be a number >= 0"),
+            TrackerError::BadFbSchedule => {
+                f.write_str("forward-backward schedule must be at least 1 frame")
+            }
             TrackerError::BadFrameSize => f.write_str("frame size must be 1 to 4096 px per side"),
             TrackerError::StorageTooSmall => {
                 f.write_str("tracker storage is smaller than tracker_storage_len")
@@ -705,6 +721,8 @@ impl<const N: usize> TrackSet<N> {
                 age: 0,
                 residual: Q16::ZERO,
                 born,
+                velocity: Point::default(),
+                prediction_error: Q16::MAX,
             };
             let anchor = Anchor::capture(&pyramid.base(), position);
             if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {

@@ -189,6 +189,12 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
             25 => f32::NAN,
             quarters => f32::from(quarters) * 0.25,
         },
+        // More quotients: the search from predictions (fine reach 0-1.5 px, 0 = whole
+        // pyramid) and the forward-backward schedule (every 1-8 frames, doubt 0-1.75 px).
+        constant_velocity: (c.block / 10) % 2 == 0,
+        fine_search: f32::from((c.block / 20) % 4) * 0.5,
+        fb_every: 1 + u32::from(c.grid.0 / 36) % 8,
+        fb_doubt: f32::from((c.grid.1 / 36) % 8) * 0.25,
     }
 }
 
@@ -204,6 +210,9 @@ fn check_refusal(e: TrackerError, input: &Input, config: &TrackerConfig) {
         TrackerError::BadMaxTracks => assert!(config.max_tracks == 0 || config.max_tracks > N),
         TrackerError::BadRefillThreshold => assert!(config.refill_below > config.max_tracks),
         TrackerError::BadMaxRelocation => assert!(config.max_relocation.is_nan()),
+        TrackerError::BadFineSearch | TrackerError::BadFbSchedule => {
+            panic!("a valid search or schedule was refused: {config:?}")
+        }
         TrackerError::BadFrameSize => panic!("a 1..=64 px frame was refused"),
         _ => {}
     }

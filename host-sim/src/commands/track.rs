@@ -152,6 +152,7 @@ mod tests {
             age: 3,
             residual: Q16::from_num(0.5),
             born: 2,
+            ..Track::default()
         }];
         let tracked = TrackedFrame {
             index: 5,

@@ -13,6 +13,7 @@ import re
 import struct
 import sys
 
+SENSOR_BUDGET_INSTRUCTIONS = 420_000
 BUDGET_INSTRUCTIONS = 1_000_000
 BUDGET_TRACKER_STATE = 64 * 1024
 BUDGET_RAM_AND_STACK = 96 * 1024
@@ -210,6 +211,22 @@ def main(argv):
     out.append(row("  of which the mavlink crate", mem["mavlink"]))
     out.append(row("test frames in flash", mem["frames"], "stand-in for the camera"))
     out.append("")
+    sensor = one(records, "sensor")
+    sensor_frames = records.get("sensor_frame", [])
+    sensor_ego = sum(int(f["ego"]) for f in sensor_frames) // max(len(sensor_frames), 1)
+    out.append(f"  {'flow-sensor preset (mean of ' + sensor['frames'] + ' frames)':<44} {'instructions':>12}  note")
+    out.append(row("pyramid + tracking + refill", int(sensor["instructions_per_frame"]) - sensor_ego,
+                   f"TrackerConfig::flow_sensor(), {sensor['tracks']} tracks after the last frame"))
+    out.append(row("similarity fit + OPTICAL_FLOW_RAD + MAVLink", sensor_ego))
+    out.append(row("whole sensor frame", sensor["instructions_per_frame"],
+                   f"budget {SENSOR_BUDGET_INSTRUCTIONS}: {int(sensor['instructions_per_frame']) / SENSOR_BUDGET_INSTRUCTIONS:.2f}x"))
+    out.append(row("  worst frame", sensor["worst"]))
+    out.append(row("OPTICAL_FLOW_RAD flow error (worst frame)", sensor["flow_error_px"] + " px",
+                   "<= 0.050 px at the principal point"))
+    for bad in records.get("sensor_bad_input", []):
+        out.append(f"    bad input -> {bad['outcome']}, quality {bad['quality']} "
+                   f"(MAVLink frame: {bad['mavlink_quality']})")
+    out.append("")
     out.append(profile(records))
     out.append("  bad input (each must be refused with quality 0, the frames after it still processed)")
     for bad in records.get("bad_input", []):
@@ -222,7 +239,10 @@ def main(argv):
         passed = any(line.strip() == "result pass" for line in f)
     print(
         f"instructions_per_frame={budget} static_ram={mem['static_ram']} stack_peak={stack_peak} "
-        f"flash={mem['flash']} tracks={per_frame['tracks']}")
+        f"flash={mem['flash']} tracks={per_frame['tracks']} "
+        f"sensor_instructions_per_frame={sensor['instructions_per_frame']} "
+        f"sensor_flow_error_px={sensor['flow_error_px']} "
+        f"pipeline_instructions_per_frame={per_frame['all_stages']} kestrel_flash={mem['library']}")
     return 0 if passed else 1
 
 

@@ -5,6 +5,10 @@
 //! rounded, and subsampled to `(w + 1) / 2` x `(h + 1) / 2`, with mirrored borders
 //! (`dcb|abcd|cba`): the same filter, size rule and border as OpenCV's `pyrDown`, so tracking
 //! results are comparable. Firmware sizes the storage with [`pyramid_storage_len`] at compile time.
+//!
+//! [`PyramidFilter::Box`] halves each level by 2 x 2 averages instead, as a flow sensor does:
+//! four halving adds per eight pixels with the Cortex-M4's UHADD8, a small fraction of the
+//! Gaussian's cost, for a little more aliasing on the coarse levels.
 
 use crate::frame::{ImageError, ImageView};
 
@@ -92,13 +96,55 @@ pub struct Pyramid<'a> {
     max_level: usize,
 }
 
+/// How each pyramid level is made from the one below it.
+///
+/// ```
+/// use kestrel::pyramid::PyramidFilter;
+/// assert_eq!(PyramidFilter::default(), PyramidFilter::Gaussian);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PyramidFilter {
+    /// OpenCV's `pyrDown`: the 5x5 binomial blur, rounded, every second pixel kept.
+    #[default]
+    Gaussian,
+    /// The mean of each 2 x 2 block, by two halving adds that each truncate (`UHADD8`'s
+    /// rounding: at most 3/4 of a grey level below the exact mean), the last column and row
+    /// repeated on odd sizes. A coarse pixel covers its block, so its centre lies half a fine
+    /// pixel right of and below the fine pixel it is indexed by: the same on both frames, so
+    /// the motion LK finds on a coarse level is unchanged, and the finest level, which is the
+    /// frame itself, settles the position.
+    Box,
+}
+
 impl<'a> Pyramid<'a> {
-    /// Builds levels `1..=max_level` of `frame` into `storage`.
+    /// Builds levels `1..=max_level` of `frame` into `storage` with the Gaussian filter.
     ///
     /// `storage` must hold at least [`pyramid_storage_len`]`(width, height, max_level)` bytes.
     pub fn build(
         frame: ImageView<'a>,
         max_level: usize,
+        storage: &'a mut [u8],
+    ) -> Result<Self, PyramidError> {
+        Self::build_with(frame, max_level, PyramidFilter::Gaussian, storage)
+    }
+
+    /// Builds levels `1..=max_level` of `frame` into `storage` with `filter`.
+    ///
+    /// ```
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
+    /// let pixels: [u8; 16] = [0, 2, 10, 20, 4, 6, 30, 40, 9, 9, 9, 9, 9, 9, 9, 9];
+    /// let frame = ImageView::packed(&pixels, 4, 4).unwrap();
+    /// let mut storage = [0u8; pyramid_storage_len(4, 4, 1)];
+    /// let pyramid = Pyramid::build_with(frame, 1, PyramidFilter::Box, &mut storage).unwrap();
+    /// let level = pyramid.level(1).unwrap();
+    /// assert_eq!((level.get(0, 0), level.get(1, 0), level.get(1, 1)), (Some(3), Some(25), Some(9)));
+    /// ```
+    pub fn build_with(
+        frame: ImageView<'a>,
+        max_level: usize,
+        filter: PyramidFilter,
         storage: &'a mut [u8],
     ) -> Result<Self, PyramidError> {
         Self::check(&frame, max_level, storage.len())?;
@@ -110,7 +156,10 @@ impl<'a> Pyramid<'a> {
             let (w, h) = (finer.width().div_ceil(2), finer.height().div_ceil(2));
             let (buf, tail) = core::mem::take(&mut rest).split_at_mut(w * h);
             rest = tail;
-            Native::downsample(&finer, buf, w, h);
+            match filter {
+                PyramidFilter::Gaussian => Native::downsample(&finer, buf, w, h),
+                PyramidFilter::Box => BoxMean::downsample(&finer, buf, w, h),
+            }
             let coarser = ImageView::packed(buf, w, h).map_err(PyramidError::Image)?;
             *slot = Some(coarser);
             finer = coarser;
@@ -432,6 +481,58 @@ fn word_row(rows: &[&[u8]; 5], out: &mut [u8]) {
     }
 }
 
+/// [`PyramidFilter::Box`]: each output pixel is `avg(avg(a, c), avg(b, d))` of its 2 x 2
+/// block `[a b; c d]`, with `avg` the truncating halving add; four output pixels per pair of
+/// source words with [`crate::dsp::uhadd8`].
+struct BoxMean;
+
+impl Downsample for BoxMean {
+    fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
+        let (sw, sh) = (src.width(), src.height());
+        // Output columns 0..whole come from whole source words.
+        let whole = (sw / 8) * 4;
+        for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
+            let top = src.row(2 * y);
+            let bottom = src.row((2 * y + 1).min(sh - 1));
+            let (words, rest) = out_row.split_at_mut(whole.min(w));
+            box_words(top, bottom, words);
+            for (k, o) in rest.iter_mut().enumerate() {
+                let x = 2 * (whole + k);
+                let px =
+                    |row: &[u8], x: usize| u32::from(row.get(x.min(sw - 1)).copied().unwrap_or(0));
+                let (a, b) = (px(top, x), px(top, x + 1));
+                let (c, d) = (px(bottom, x), px(bottom, x + 1));
+                *o = (((a + c) / 2 + (b + d) / 2) / 2) as u8;
+            }
+        }
+    }
+}
+
+/// Four output pixels per two source words of each row: the vertical halving adds of the
+/// words, then the horizontal ones of their even and odd bytes.
+#[inline(never)]
+fn box_words(top: &[u8], bottom: &[u8], out: &mut [u8]) {
+    use crate::dsp::uhadd8;
+    const EVEN: u32 = 0x00FF_00FF;
+    let word = |c: &[u8]| c.try_into().map_or(0, u32::from_le_bytes);
+    let pairs = top.chunks_exact(8).zip(bottom.chunks_exact(8));
+    for (quad, (t, b)) in out.chunks_exact_mut(4).zip(pairs) {
+        let (t0, t1) = t.split_at(4);
+        let (b0, b1) = b.split_at(4);
+        let columns = |t: &[u8], b: &[u8]| {
+            let v = uhadd8(word(t), word(b));
+            // Lanes 0 and 2 hold the two outputs of these four columns.
+            uhadd8(v & EVEN, (v >> 8) & EVEN)
+        };
+        let (low, high) = (columns(t0, b0), columns(t1, b1));
+        let pixels = (low & 0xFF)
+            | ((low >> 8) & 0xFF00)
+            | ((high & 0xFF) << 16)
+            | ((high << 8) & 0xFF00_0000);
+        quad.copy_from_slice(&pixels.to_le_bytes());
+    }
+}
+
 /// One output pixel straight from the 5x5 kernel, with mirrored columns.
 #[cfg_attr(
     any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
@@ -537,6 +638,32 @@ mod tests {
                     }
                 }
                 assert_eq!(level.get(x, y).unwrap(), ((sum + 128) >> 8) as u8);
+            }
+        }
+    }
+
+    /// The box filter equals the 2 x 2 truncated means pixel by pixel, word path and edges,
+    /// on odd and even sizes.
+    #[test]
+    fn box_filter_matches_direct_means() {
+        let mut state = 99u32;
+        let px: [u8; 37 * 23] = core::array::from_fn(|_| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 24) as u8
+        });
+        for (w, h) in [(37, 23), (32, 16), (9, 3), (1, 1), (8, 2)] {
+            let frame = ImageView::packed(&px[..w * h], w, h).unwrap();
+            let mut storage = [0u8; 37 * 23];
+            let p = Pyramid::build_with(frame, 1, PyramidFilter::Box, &mut storage).unwrap();
+            let level = p.level(1).unwrap();
+            let at = |x: usize, y: usize| u32::from(px[y.min(h - 1) * w + x.min(w - 1)]);
+            for y in 0..level.height() {
+                for x in 0..level.width() {
+                    let (a, b) = (at(2 * x, 2 * y), at(2 * x + 1, 2 * y));
+                    let (c, d) = (at(2 * x, 2 * y + 1), at(2 * x + 1, 2 * y + 1));
+                    let mean = ((a + c) / 2 + (b + d) / 2) / 2;
+                    assert_eq!(level.get(x, y), Some(mean as u8), "{w}x{h} at {x},{y}");
+                }
             }
         }
     }

@@ -131,7 +131,7 @@ fn track_error(truth: &Truth, pairs: &[(Point, Point)]) -> (f32, usize) {
 }
 
 /// The larger axis error of the reading's flow against the camera's motion, rad.
-fn flow_error(flow: &OpticalFlowRad, focal: f32) -> f32 {
+pub fn flow_error(flow: &OpticalFlowRad, focal: f32) -> f32 {
     let (mx, my) = MOTION_MILLIPX;
     // Image x is flow about X, image y flow about Y (see kestrel::ego::Camera::angular_flow).
     let expected_x = atan_small(mx as f32 / 1000.0 / focal);

@@ -42,9 +42,13 @@ pub struct Ego {
 }
 
 impl Ego {
-    /// A homography RANSAC with the library's defaults and a 60 degree camera.
-    pub fn new() -> Result<Self, FrameError> {
-        let ransac = Ransac::new(RansacParams::default()).map_err(FrameError::Ego)?;
+    /// A RANSAC fit of `model` with the library's other defaults and a 60 degree camera.
+    pub fn new(model: ModelKind) -> Result<Self, FrameError> {
+        let params = RansacParams {
+            model,
+            ..RansacParams::default()
+        };
+        let ransac = Ransac::new(params).map_err(FrameError::Ego)?;
         let params = CameraParams::from_horizontal_fov(WIDTH as u16, HEIGHT as u16, fov_radians());
         let camera = Camera::new(params).map_err(FrameError::Camera)?;
         Ok(Self {

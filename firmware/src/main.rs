@@ -20,6 +20,7 @@ mod pipeline;
 mod profile;
 mod report;
 mod scene;
+mod sensor;
 mod stack;
 mod stages;
 mod summary;
@@ -40,6 +41,7 @@ const CALIBRATION_TOLERANCE_PPM: i64 = 1000;
 fn main() -> ! {
     static mut TRACKER_MEMORY: TrackerMemory = TrackerMemory::new();
     static mut DENSE_MEMORY: DenseMemory = DenseMemory::new();
+    static mut SENSOR_MEMORY: sensor::SensorMemory = sensor::SensorMemory::new();
 
     let Some(peripherals) = cortex_m::Peripherals::take() else {
         fail("core peripherals already taken")
@@ -50,6 +52,7 @@ fn main() -> ! {
     let pipeline = make_pipeline(TRACKER_MEMORY, DENSE_MEMORY);
     memory::print();
     let passed = budget::run(pipeline, &meter) && calibrated;
+    let passed = sensor::run(&meter, SENSOR_MEMORY) && passed;
     profile::run(&meter, pipeline);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());
     if passed {

@@ -10,7 +10,7 @@ use kestrel::dense::motion::MotionSummary;
 use kestrel::dense::DenseError;
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
-use kestrel::ego::{CameraError, EgoMotion, OpticalFlowRad, RansacError};
+use kestrel::ego::{CameraError, EgoMotion, ModelKind, OpticalFlowRad, RansacError};
 use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{scratch_len, LkParams, TemplatePlacement};
 use kestrel::pyramid::Pyramid;
@@ -149,7 +149,7 @@ impl Pipeline {
         Ok(Self {
             tracker,
             previous: None,
-            ego: Ego::new()?,
+            ego: Ego::new(ModelKind::Homography)?,
             dense: Dense::new(dense)?,
         })
     }

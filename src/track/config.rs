@@ -4,8 +4,8 @@ use super::TrackerError;
 use crate::detect::fast::Fast;
 use crate::detect::grid::Grid;
 use crate::detect::shi_tomasi::ShiTomasi;
-use crate::lk::{LkParams, LucasKanade};
-use crate::pyramid::MAX_LEVEL;
+use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement};
+use crate::pyramid::{PyramidFilter, MAX_LEVEL};
 use crate::q16::Q16;
 
 /// The corner detector that starts new tracks.
@@ -135,6 +135,9 @@ pub struct TrackerConfig {
     /// forward-backward (see [`TrackerConfig::fb_every`]). `f32::INFINITY` leaves only the
     /// first steps, the fallbacks and the schedule.
     pub fb_doubt: f32,
+    /// How the tracker's pyramid levels are made (a dense grid that borrows them gets the
+    /// same).
+    pub pyramid: PyramidFilter,
 }
 
 impl Default for TrackerConfig {
@@ -168,13 +171,70 @@ impl Default for TrackerConfig {
             max_relocation: 0.75,
             constant_velocity: true,
             fine_search: 1.0,
-            fb_every: 4,
+            fb_every: 8,
             fb_doubt: 0.25,
+            pyramid: PyramidFilter::Gaussian,
         }
     }
 }
 
 impl TrackerConfig {
+    /// The flow-sensor preset: what a flight controller needs to feed the autopilot's
+    /// OPTICAL_FLOW_RAD at 400 Hz from 160 x 120 frames, within about 420,000 instructions a
+    /// frame on a Cortex-M4 (all in: pyramid, tracking, refill, the motion fit).
+    ///
+    /// 25 tracks spread by a 5 x 5 grid (as PX4FLOW's 25 blocks), 7 x 7 windows on two levels
+    /// whose coarse level is a 2 x 2 box mean, FAST corners on the coarse level, the
+    /// template on the nearest pixel, at most 10 iterations; the gates, the gain and bias
+    /// model, the motion prediction and the forward-backward schedule as the defaults have
+    /// them. At 400 Hz the image moves a few pixels a frame at most, which two levels of a 7 x 7
+    /// window cover.
+    ///
+    /// ```
+    /// use kestrel::track::TrackerConfig;
+    /// const SENSOR: TrackerConfig = TrackerConfig::flow_sensor();
+    /// assert_eq!((SENSOR.max_tracks, SENSOR.lk.window, SENSOR.pyramid_levels()), (25, 7, 1));
+    /// ```
+    pub const fn flow_sensor() -> Self {
+        Self {
+            lk: LkParams {
+                window: 7,
+                max_level: 1,
+                max_iterations: 10,
+                epsilon: 0.01,
+                min_eigen_threshold: 2e-3,
+                illumination: Illumination::GainBias,
+                template: TemplatePlacement::NearestPixel,
+            },
+            max_tracks: 25,
+            refill_below: 20,
+            detector: Detector::Fast(Fast {
+                threshold: 10,
+                nonmax: true,
+            }),
+            detect_level: 1,
+            grid: Grid {
+                cols: 5,
+                rows: 5,
+                per_cell: 1,
+            },
+            border: 8,
+            min_distance: 5,
+            fb_threshold: 1.0,
+            max_residual: 12.0,
+            residual_ratio: 3.0,
+            min_correlation: 0.8,
+            relocate_every: 16,
+            relocate_from_age: 32,
+            max_relocation: 0.75,
+            constant_velocity: true,
+            fine_search: 1.0,
+            fb_every: 8,
+            fb_doubt: 0.25,
+            pyramid: PyramidFilter::Box,
+        }
+    }
+
     /// The coarsest pyramid level the tracker builds: the deeper of the LK pyramid and the
     /// detection level. Size the storage with it (see [`super::tracker_storage_len`]).
     ///

@@ -365,7 +365,8 @@ impl<'a, const N: usize> Tracker<'a, N> {
             ..
         } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
         let storage = if half == 0 { first } else { second };
-        Pyramid::build(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+        Pyramid::build_with(frame, levels, self.config.pyramid, storage)
+            .map_err(TrackerError::Pyramid)?;
 
         // A restart ends the previous frame's tracks; they are not counted as dropped.
         self.set.clear();
@@ -449,7 +450,8 @@ impl<'a, const N: usize> Tracker<'a, N> {
         };
         let prev_pyramid =
             Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
-        let next_pyramid = Pyramid::build(next, levels, new).map_err(TrackerError::Pyramid)?;
+        let next_pyramid = Pyramid::build_with(next, levels, self.config.pyramid, new)
+            .map_err(TrackerError::Pyramid)?;
         stage_ended(TrackerStage::Pyramid);
 
         let mut report = FrameReport::default();

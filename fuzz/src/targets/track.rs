@@ -195,6 +195,11 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
         fine_search: f32::from((c.block / 20) % 4) * 0.5,
         fb_every: 1 + u32::from(c.grid.0 / 36) % 8,
         fb_doubt: f32::from((c.grid.1 / 36) % 8) * 0.25,
+        pyramid: if (c.block / 80) % 2 == 0 {
+            PyramidFilter::Gaussian
+        } else {
+            PyramidFilter::Box
+        },
     }
 }
 

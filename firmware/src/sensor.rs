@@ -1,0 +1,203 @@
+//! The flow-sensor preset (`TrackerConfig::flow_sensor`) as a flow sensor runs it: per frame the
+//! tracker (pyramid, tracking, refill), a similarity fit of the camera's motion and its
+//! OPTICAL_FLOW_RAD reading with the MAVLink frame, all timed as one, over the same frames as the
+//! budget run and with the same bad input. Its budget is 420,000 instructions a frame (400 Hz at
+//! 168 MHz); its flow must be within 0.05 px of the scene's motion at the principal point.
+
+use cortex_m_semihosting::hprintln;
+use kestrel::detect::Corner;
+use kestrel::ego::ModelKind;
+use kestrel::frame::{ImageError, ImageView};
+use kestrel::lk::scratch_len;
+use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig, TrackerError};
+use kestrel::Point;
+
+use crate::camera;
+use crate::checks::{flow_error, flow_tolerance, frame_quality};
+use crate::ego::Ego;
+use crate::meter::{instructions, Meter};
+use crate::pipeline::FrameError;
+use crate::report::Micro;
+use crate::scene::{FRAMES, FRAME_LEN, HEIGHT, WIDTH};
+
+/// The preset's settings.
+const CONFIG: TrackerConfig = TrackerConfig::flow_sensor();
+/// Its tracks.
+pub const TRACKS: usize = CONFIG.max_tracks;
+/// Corner candidates of one detection: three per track.
+const CANDIDATES: usize = 3 * TRACKS;
+const STORAGE_LEN: usize = tracker_storage_len(WIDTH, HEIGHT, CONFIG.pyramid_levels());
+const LK_SCRATCH_LEN: usize = scratch_len(CONFIG.lk.window);
+
+/// The preset's buffers, in one `static` so that they land in `.bss`. FAST needs no detection
+/// scratch.
+pub struct SensorMemory {
+    storage: [u8; STORAGE_LEN],
+    lk_scratch: [i16; LK_SCRATCH_LEN],
+    candidates: [Corner; CANDIDATES],
+}
+
+impl SensorMemory {
+    /// Zeroed buffers, for a `static` initialiser.
+    pub const fn new() -> Self {
+        const NO_CORNER: Corner = Corner {
+            position: Point::from_bits(0, 0),
+            score: 0,
+        };
+        Self {
+            storage: [0; STORAGE_LEN],
+            lk_scratch: [0; LK_SCRATCH_LEN],
+            candidates: [NO_CORNER; CANDIDATES],
+        }
+    }
+}
+
+/// The flow sensor: the preset's tracker and its motion fit.
+struct Sensor<'m> {
+    tracker: Tracker<'static, TRACKS>,
+    ego: Ego,
+    previous: Option<ImageView<'static>>,
+    meter: &'m Meter,
+    /// The latest frame's motion fit, reading and MAVLink frame.
+    ego_instructions: u64,
+}
+
+impl<'m> Sensor<'m> {
+    fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, FrameError> {
+        let buffers = TrackerBuffers {
+            storage: &mut memory.storage,
+            lk_scratch: &mut memory.lk_scratch,
+            detect_scratch: &mut [],
+            candidates: &mut memory.candidates,
+        };
+        let tracker = Tracker::new(CONFIG, WIDTH, HEIGHT, buffers).map_err(FrameError::Track)?;
+        Ok(Self {
+            tracker,
+            ego: Ego::new(ModelKind::Similarity)?,
+            previous: None,
+            meter,
+            ego_instructions: 0,
+        })
+    }
+
+    /// One frame: tracked from the previous one, fitted and read out; a refused frame reads
+    /// out with quality 0 and leaves the tracker as it was.
+    fn frame(&mut self, pixels: &'static [u8], size: (usize, usize)) -> Result<bool, FrameError> {
+        let outcome = self.track(pixels, size);
+        if outcome.is_err() {
+            self.ego.refuse().map_err(FrameError::Mavlink)?;
+        }
+        outcome
+    }
+
+    /// True when the frame was tracked (not the first).
+    fn track(&mut self, pixels: &'static [u8], (w, h): (usize, usize)) -> Result<bool, FrameError> {
+        let next = ImageView::packed(pixels, w, h).map_err(FrameError::Image)?;
+        let Some(prev) = self.previous else {
+            self.tracker.start(next).map_err(FrameError::Track)?;
+            self.ego.remember(self.tracker.tracks());
+            self.previous = Some(next);
+            return Ok(false);
+        };
+        self.tracker
+            .process(prev, next, None)
+            .map_err(FrameError::Track)?;
+        self.previous = Some(next);
+        let ego = &mut self.ego;
+        let tracks = self.tracker.tracks();
+        let (fit, ticks) = self.meter.measure(|| ego.estimate(tracks));
+        fit?;
+        self.ego_instructions = instructions(ticks);
+        Ok(true)
+    }
+}
+
+/// Runs the preset over the sequence with the budget run's bad input after frame 5; prints a
+/// line per frame and a summary. False when its flow misses the scene's motion, a bad frame is
+/// not refused with quality 0, or the preset cannot be made.
+#[inline(never)]
+pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
+    let mut sensor = match Sensor::new(memory, meter) {
+        Ok(s) => s,
+        Err(e) => {
+            hprintln!("error sensor preset refused: {:?}", e);
+            return false;
+        }
+    };
+    let focal = sensor.ego.focal_length();
+    let (mut ok, mut total, mut worst, mut frames, mut worst_error) = (true, 0, 0, 0, 0.0f32);
+    for index in 0..FRAMES {
+        let (outcome, ticks) =
+            meter.measure(|| sensor.frame(camera::frame(index), (WIDTH, HEIGHT)));
+        let spent = instructions(ticks);
+        match outcome {
+            Ok(true) => {
+                let (flow, _) = sensor.ego.latest();
+                let error = flow_error(flow, focal);
+                hprintln!(
+                    "sensor_frame {} instructions={} ego={} tracks={} quality={} flow_error={}",
+                    index,
+                    spent,
+                    sensor.ego_instructions,
+                    sensor.tracker.tracks().len(),
+                    flow.quality,
+                    Micro(error)
+                );
+                ok &= error <= flow_tolerance(focal);
+                worst_error = worst_error.max(error);
+                total += spent;
+                worst = worst.max(spent);
+                frames += 1;
+            }
+            Ok(false) => hprintln!("sensor_prime instructions={}", spent),
+            Err(e) => {
+                hprintln!("error sensor frame {}: {:?}", index, e);
+                ok = false;
+            }
+        }
+        if index == 5 {
+            ok &= refuses_bad_input(&mut sensor, camera::frame(6));
+        }
+    }
+    let mean = total / frames.max(1);
+    hprintln!(
+        "sensor instructions_per_frame={} worst={} frames={} flow_error_px={} tracks={}",
+        mean,
+        worst,
+        frames,
+        Micro(worst_error * focal),
+        sensor.tracker.tracks().len()
+    );
+    ok
+}
+
+/// The budget run's three bad frames: each an error value with a reading of quality 0.
+fn refuses_bad_input(sensor: &mut Sensor<'_>, good: &'static [u8]) -> bool {
+    let cases: [(&'static [u8], (usize, usize), FrameError); 3] = [
+        (
+            good.get(..FRAME_LEN - 1).unwrap_or(&[]),
+            (WIDTH, HEIGHT),
+            FrameError::Image(ImageError::BufferTooSmall),
+        ),
+        (&[], (0, 0), FrameError::Image(ImageError::ZeroSize)),
+        (
+            good.get(..(WIDTH / 2) * (HEIGHT / 2)).unwrap_or(&[]),
+            (WIDTH / 2, HEIGHT / 2),
+            FrameError::Track(TrackerError::FrameSizeMismatch),
+        ),
+    ];
+    let mut ok = true;
+    for (pixels, size, expected) in cases {
+        let outcome = sensor.frame(pixels, size).map(|_| ());
+        let (flow, mavlink) = sensor.ego.latest();
+        let refused = outcome == Err(expected) && flow.quality == 0 && frame_quality(mavlink) == 0;
+        hprintln!(
+            "sensor_bad_input outcome={:?} quality={} mavlink_quality={}",
+            outcome,
+            flow.quality,
+            frame_quality(mavlink)
+        );
+        ok &= refused;
+    }
+    ok
+}

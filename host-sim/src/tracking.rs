@@ -20,6 +20,37 @@ pub const MAX_TRACKS: usize = 1000;
 /// its share.
 const PER_CELL: u8 = 3;
 
+/// A named tracker configuration of the library's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Preset {
+    /// [`TrackerConfig::flow_sensor`].
+    FlowSensor,
+}
+
+impl Preset {
+    /// The preset's configuration, with `max_tracks` (and a refill threshold at four fifths of
+    /// it) when given.
+    ///
+    /// ```
+    /// use host_sim::tracking::Preset;
+    /// assert_eq!(Preset::FlowSensor.config(None).max_tracks, 25);
+    /// assert_eq!(Preset::FlowSensor.config(Some(40)).refill_below, 32);
+    /// ```
+    pub fn config(self, max_tracks: Option<usize>) -> TrackerConfig {
+        let preset = match self {
+            Preset::FlowSensor => TrackerConfig::flow_sensor(),
+        };
+        match max_tracks {
+            Some(n) => TrackerConfig {
+                max_tracks: n,
+                refill_below: n * 4 / 5,
+                ..preset
+            },
+            None => preset,
+        }
+    }
+}
+
 /// The library's default settings for `max_tracks` tracks on `width` x `height` frames:
 /// refill below 80% of the target, and a grid of about one cell per two tracks shaped like the
 /// frame (8 x 6 cells for 100 tracks at 4:3).

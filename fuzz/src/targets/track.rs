@@ -15,6 +15,7 @@ use kestrel::detect::grid::Grid;
 use kestrel::detect::shi_tomasi::ShiTomasi;
 use kestrel::detect::Corner;
 use kestrel::lk::scratch_len;
+use kestrel::pyramid::PyramidFilter;
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, Detector, FrameReport, Track, Tracker, TrackerBuffers,
     TrackerConfig, TrackerError,

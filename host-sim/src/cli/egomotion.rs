@@ -36,7 +36,11 @@ Options:
   --mavlink OUT.bin MAVLink 2 OPTICAL_FLOW_RAD frames (id 106), one per frame pair, back to
                     back as raw bytes; system 1, component 100, sequence from 0
   --fps F           frame rate, 1 to 10000 [default: the y4m header's, else 30]
-  --max-points N    points tracked per pair, 8 to 2000 [default: 200]
+  --max-points N    points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]
+  --preset NAME     flow-sensor: the LK settings and pyramid of the library's
+                    TrackerConfig::flow_sensor() (7x7 windows on two levels of a box-mean
+                    pyramid, nearest-pixel templates, 10 iterations) and its 25 points;
+                    flags given beside it override it [default: none, OpenCV's LK settings]
   --threshold PX    RANSAC inlier threshold, 0.05 to 100 px; raise it for blurred or noisy
                     video [default: 0.5]
   --stats S.json    write {\"frames\", \"pairs\", \"mean_tracked_points\",
@@ -71,6 +75,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--mavlink"),
     Flag::value("--fps"),
     Flag::value("--max-points"),
+    Flag::value("--preset"),
     Flag::value("--threshold"),
     Flag::value("--stats"),
 ];
@@ -107,11 +112,19 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
         Some(_) => Some(matches.number("--focal", 0.0, FOCAL)? as f32),
         None => None,
     };
-    let settings = EstimatorSettings {
+    let mut settings = EstimatorSettings {
         model: model(matches, ModelKind::Homography)?,
         focal,
         ..measurement(matches)?
     };
+    if let Some(preset) = super::track::preset(matches)? {
+        let config = preset.config(None);
+        settings.lk = config.lk;
+        settings.pyramid = config.pyramid;
+        if matches.value("--max-points").is_none() {
+            settings.max_points = config.max_tracks;
+        }
+    }
     Ok(EgomotionOptions {
         input,
         out,
@@ -208,9 +221,20 @@ mod tests {
                 focal: Some(200.5),
                 max_points: 50,
                 threshold: 0.8,
+                ..EstimatorSettings::default()
             }
         );
         assert_eq!(options.fps, Some(60.0));
+        let preset = parsed("- --out e.csv --preset flow-sensor")
+            .unwrap()
+            .unwrap();
+        let sensor = kestrel::track::TrackerConfig::flow_sensor();
+        assert_eq!(preset.settings.lk, sensor.lk);
+        assert_eq!(preset.settings.max_points, 25);
+        let wider = parsed("- --out e.csv --preset flow-sensor --max-points 60")
+            .unwrap()
+            .unwrap();
+        assert_eq!(wider.settings.max_points, 60);
         assert!(options.gyro.is_some() && options.mavlink.is_some() && options.stats.is_some());
     }
 

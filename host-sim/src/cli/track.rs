@@ -4,6 +4,7 @@ use std::ffi::OsString;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
 use crate::commands::track::TrackOptions;
+use crate::tracking::Preset;
 use crate::tracking::MAX_TRACKS;
 
 /// The usage text of `host-sim track --help`.
@@ -19,7 +20,12 @@ INPUT:
 
 Options:
   --out FILE        tracks, one row per live track per frame (see below)
-  --max-tracks N    number of tracks aimed for, 1 to 1000 [default: 100]
+  --max-tracks N    number of tracks aimed for, 1 to 1000 [default: 100; the preset's with
+                    --preset]
+  --preset NAME     flow-sensor: the library's TrackerConfig::flow_sensor() (25 tracks, 7x7
+                    windows on two levels of a box-mean pyramid, FAST corners), the settings
+                    a flight controller runs at 400 Hz; flags given beside it override it
+                    [default: none, the tracker's defaults]
   --viz DIR         one PNG per frame (000000.png, ...) with each track's trail over its last
                     10 frames, coloured by id; DIR is created if missing
   --stats S.json    write {\"frames\": n, \"median_frame_seconds\": t, \"mean_frame_seconds\": t}:
@@ -43,6 +49,7 @@ Exit status: 0 success; 1 unreadable or malformed input, or an output that canno
 const FLAGS: &[Flag] = &[
     Flag::value("--out"),
     Flag::value("--max-tracks"),
+    Flag::value("--preset"),
     Flag::value("--viz"),
     Flag::value("--stats"),
 ];
@@ -71,10 +78,26 @@ fn options(matches: &Matches) -> Result<TrackOptions, UsageError> {
         input: input.clone(),
         out: matches.required_path("--out")?,
         // Range-checked by the rule, so the conversion cannot truncate.
-        max_tracks: matches.integer("--max-tracks", 100, TRACKS)? as usize,
+        max_tracks: match matches.value("--max-tracks") {
+            Some(_) => Some(matches.integer("--max-tracks", 100, TRACKS)? as usize),
+            None => None,
+        },
+        preset: preset(matches)?,
         viz: matches.path("--viz"),
         stats: matches.path("--stats"),
     })
+}
+
+/// The `--preset` flag's value.
+pub fn preset(matches: &Matches) -> Result<Option<Preset>, UsageError> {
+    match matches.value("--preset") {
+        None => Ok(None),
+        Some(name) if name == "flow-sensor" => Ok(Some(Preset::FlowSensor)),
+        Some(name) => Err(UsageError::new(
+            "--preset",
+            format!("must be flow-sensor (got {})", name.to_string_lossy()),
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -94,13 +117,21 @@ mod tests {
     fn defaults_and_every_option() {
         let options = parsed("clip.y4m --out t.csv").unwrap().unwrap();
         assert_eq!(options.input, OsString::from("clip.y4m"));
-        assert_eq!((options.max_tracks, options.viz), (100, None));
+        assert_eq!((options.max_tracks, options.viz), (None, None));
         let options = parsed("- --out t.csv --max-tracks 250 --viz pics")
             .unwrap()
             .unwrap();
         assert_eq!(options.input, OsString::from("-"));
-        assert_eq!(options.max_tracks, 250);
+        assert_eq!(options.max_tracks, Some(250));
         assert_eq!(options.viz.unwrap().to_str(), Some("pics"));
+        let sensor = parsed("- --out t.csv --preset flow-sensor")
+            .unwrap()
+            .unwrap();
+        assert_eq!(sensor.preset, Some(Preset::FlowSensor));
+        assert_eq!(
+            error("- --out t.csv --preset fast"),
+            "--preset: must be flow-sensor (got fast)"
+        );
     }
 
     #[test]

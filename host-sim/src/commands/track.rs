@@ -12,7 +12,7 @@ use crate::io::json::JsonObject;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
-use crate::tracking::{config_for, track_sequence, TrackedFrame, TrackingFailure};
+use crate::tracking::{config_for, track_sequence, Preset, TrackedFrame, TrackingFailure};
 use crate::viz::Trails;
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
@@ -26,8 +26,10 @@ pub struct TrackOptions {
     pub input: OsString,
     /// Where tracks.csv goes.
     pub out: PathBuf,
-    /// The number of tracks aimed for.
-    pub max_tracks: usize,
+    /// The number of tracks aimed for, when given.
+    pub max_tracks: Option<usize>,
+    /// The configuration the tracker starts from, when not its defaults.
+    pub preset: Option<Preset>,
     /// Where the trail pictures go, if anywhere.
     pub viz: Option<PathBuf>,
     /// Where to write the timing summary, if anywhere.
@@ -64,7 +66,10 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let mut seconds = Vec::new();
 
     let frames = source.map(|frame| frame.map_err(CommandError::from));
-    let configure = |width, height| config_for(width, height, options.max_tracks);
+    let configure = |width, height| match options.preset {
+        Some(preset) => preset.config(options.max_tracks),
+        None => config_for(width, height, options.max_tracks.unwrap_or(100)),
+    };
     let outcome = track_sequence(frames, configure, |tracked| {
         // The picture first: a frame's rows are only written once all its outputs are.
         if let Some(dir) = &options.viz {

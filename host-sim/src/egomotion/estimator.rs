@@ -10,7 +10,7 @@ use kestrel::detect::shi_tomasi::{self, ShiTomasi};
 use kestrel::detect::{Corner, Region};
 use kestrel::ego::{Camera, CameraParams, EgoMotion, ModelKind, Ransac, RansacParams, Rotation};
 use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack};
-use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
 use kestrel::Point;
 
 use crate::Frame;
@@ -41,6 +41,10 @@ pub struct EstimatorSettings {
     pub max_points: usize,
     /// RANSAC inlier threshold on the transfer error, px.
     pub threshold: f32,
+    /// How points are followed from frame to frame.
+    pub lk: LkParams,
+    /// How the pyramid levels are made.
+    pub pyramid: PyramidFilter,
 }
 
 impl Default for EstimatorSettings {
@@ -50,6 +54,8 @@ impl Default for EstimatorSettings {
             focal: None,
             max_points: DEFAULT_MAX_POINTS,
             threshold: DEFAULT_THRESHOLD,
+            lk: LkParams::default(),
+            pyramid: PyramidFilter::Gaussian,
         }
     }
 }
@@ -76,6 +82,7 @@ pub struct MotionEstimator {
     grid: Grid,
     max_points: usize,
     lk: LucasKanade,
+    pyramid: PyramidFilter,
     ransac: Ransac,
     /// The previous frame and its pyramid levels, once a frame was pushed.
     prev: Option<Frame>,
@@ -95,7 +102,7 @@ impl MotionEstimator {
     /// An estimator for `width` x `height` frames (sizes the library accepts).
     pub fn new(settings: &EstimatorSettings, width: usize, height: usize) -> Result<Self, String> {
         let camera = camera(settings.focal, width, height)?;
-        let lk_params = LkParams::default();
+        let lk_params = settings.lk;
         let lk = LucasKanade::new(lk_params).map_err(|e| format!("tracker: {e}"))?;
         let ransac_params = RansacParams {
             model: settings.model,
@@ -115,6 +122,7 @@ impl MotionEstimator {
             },
             grid: grid(settings.max_points, width, height),
             max_points: settings.max_points,
+            pyramid: settings.pyramid,
             lk,
             ransac,
             prev: None,
@@ -152,7 +160,8 @@ impl MotionEstimator {
         }
         let levels = self.lk.params().max_level;
         let view = frame.view().map_err(|e| e.to_string())?;
-        Pyramid::build(view, levels, &mut self.next_levels).map_err(|e| e.to_string())?;
+        Pyramid::build_with(view, levels, self.pyramid, &mut self.next_levels)
+            .map_err(|e| e.to_string())?;
         let motion = match self.prev.take() {
             Some(prev) => Some(self.measure(&prev, &frame, rotation)?),
             None => None,

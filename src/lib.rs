@@ -12,10 +12,15 @@
 //! 7. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
 //!    and the autopilot's OPTICAL_FLOW_RAD output.
 //!
+//! [`dsp`] holds the Cortex-M4 DSP instructions (USADA8, UHADD8, SMLAD) with their portable
+//! equivalents.
+//!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
 //! can place it in a `static`.
 #![no_std]
-#![forbid(unsafe_code)]
+// Unsafe code is denied everywhere but in `dsp`, whose `asm!` blocks are register-only
+// instructions (see below).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 // Panics stay out of the library: no unwrap, expect, panic, todo, unimplemented or
 // unreachable, no indexing or slicing that can go out of bounds, and no integer arithmetic
@@ -39,6 +44,13 @@
 
 pub mod dense;
 pub mod detect;
+// The one module allowed `unsafe`: its `asm!` blocks are single DSP instructions that read and
+// write registers only. Each is `options(pure, nomem, nostack)`: it touches no memory and no
+// stack, so it cannot create a dangling, aliased or out-of-bounds access, and its result
+// depends on its inputs alone. The portable versions next to them are the reference, checked
+// against the instructions bit for bit on the target (firmware/src/dsp_check.rs).
+#[allow(unsafe_code)]
+pub mod dsp;
 pub mod ego;
 pub mod frame;
 // The LK core and the pyramid are hot per-pixel loops: window sums, bilinear sampling and the

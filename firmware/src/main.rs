@@ -13,6 +13,7 @@ mod budget;
 mod camera;
 mod checks;
 mod dense;
+mod dsp_check;
 mod ego;
 mod memory;
 mod meter;
@@ -47,9 +48,10 @@ fn main() -> ! {
     let meter = Meter::new(peripherals.SYST);
     print_config();
     let calibrated = calibrate(&meter);
+    let dsp_checked = dsp_check::run();
     let pipeline = make_pipeline(TRACKER_MEMORY, DENSE_MEMORY);
     memory::print();
-    let passed = budget::run(pipeline, &meter) && calibrated;
+    let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked;
     profile::run(&meter, pipeline);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());
     if passed {

@@ -9,6 +9,8 @@ gigabytes). Every executed translation block adds its instructions; counting sto
 profile variants begin, so the figures cover calibration, the budget run and its bad input.
 With llvm-symbolizer on PATH each instruction is charged to the innermost Kestrel function it
 was inlined from, with its source line; without it, to the ELF symbol that contains it.
+The boot-time check of the DSP instructions (firmware/src/dsp_check.rs) is left out: it is not
+part of the budget run.
 A diagnosis tool: CI does not run it.
 """
 
@@ -29,6 +31,15 @@ FIRMWARE = os.path.join(ROOT, "firmware")
 ELF = os.path.join(FIRMWARE, "target", "thumbv7em-none-eabihf", "release", "firmware")
 # The first block of this function ends the budget run (see firmware/src/profile.rs).
 STOP_SYMBOL = "7profile3run"
+# Functions whose own instructions are not counted (symbol name fragments).
+SKIPPED_SYMBOLS = ("9dsp_check3run",)
+
+
+def skipped_ranges():
+    """Address ranges of the functions in SKIPPED_SYMBOLS."""
+    _, symbols = read_elf(ELF)
+    return [(addr, addr + size) for name, addr, size, _ in symbols
+            if any(fragment in name for fragment in SKIPPED_SYMBOLS)]
 
 
 def runner():
@@ -41,6 +52,7 @@ def trace(log_path):
     """Instructions executed per guest address, up to the stop symbol."""
     blocks = {}
     executions = collections.Counter()
+    skipped = skipped_ranges()
     current = None
     with open(log_path, errors="replace") as log:
         for line in log:
@@ -49,7 +61,8 @@ def trace(log_path):
                 pc = int(inside.split("/", 2)[1], 16)
                 if STOP_SYMBOL in inside:
                     break
-                executions[pc] += 1
+                if not any(start <= pc < end for start, end in skipped):
+                    executions[pc] += 1
             elif line.startswith("IN:"):
                 current = None
             elif line.startswith("0x") and ":" in line[:12]:

@@ -6,7 +6,9 @@
 //! (`src/modules/flow/flow.c` of [PX4/Flow](https://github.com/PX4/Flow)), on Kestrel's
 //! borrowed frames:
 //!
-//! 1. The central [`CROP`] x [`CROP`] pixels of each frame stand in for PX4FLOW's 64x64 image.
+//! 1. The central [`CROP`] x [`CROP`] pixels of each frame stand in for PX4FLOW's 64x64 image;
+//!    they are copied into a caller-owned [`Workspace`], so that every block is read at
+//!    constant offsets as flow.c reads its 64-byte rows.
 //! 2. [`BLOCKS`] blocks of [`BLOCK`] x [`BLOCK`] on a 5x5 grid, placed as flow.c places them:
 //!    from `r + 1` to `64 - (r + 1) - 8` in steps of `(64 - 2 (r + 1) - 8) / 5 + 1` for a
 //!    search radius `r` (with `r = 4`: 5, 15, 25, 35, 45).
@@ -32,7 +34,7 @@
 //!
 //! ```
 //! use kestrel::frame::ImageView;
-//! use px4flow::{BlockMatcher, Config};
+//! use px4flow::{BlockMatcher, Config, Workspace};
 //!
 //! // A textured 80x80 frame and the same frame moved 2 px right and 1 px down.
 //! let texture = |x: usize, y: usize| ((x * 7 + y * 13) % 31 * 8 + (x * y) % 5) as u8;
@@ -42,7 +44,8 @@
 //! let next = ImageView::packed(&next, 80, 80).unwrap();
 //!
 //! let matcher = BlockMatcher::new(Config::default())?;
-//! let flow = matcher.flow(&prev, &next)?;
+//! let mut workspace = Workspace::new(); // the two 64x64 crops, caller-owned
+//! let flow = matcher.flow(&prev, &next, &mut workspace)?;
 //! assert_eq!((flow.x, flow.y, flow.quality), (2.0, 1.0, 255));
 //! # Ok::<(), px4flow::Error>(())
 //! ```
@@ -306,36 +309,43 @@ impl BlockMatcher {
     }
 
     /// The flow from `prev` to `next`, matched on the central [`CROP`] x [`CROP`] pixels of
-    /// both (the crop starts at `((width - 64) / 2, (height - 64) / 2)`).
+    /// both (the crop starts at `((width - 64) / 2, (height - 64) / 2)`), which are copied
+    /// into `workspace` first.
     ///
     /// ```
     /// use kestrel::frame::ImageView;
-    /// use px4flow::{BlockMatcher, Config, Error};
+    /// use px4flow::{BlockMatcher, Config, Error, Workspace};
     /// let matcher = BlockMatcher::new(Config::default())?;
+    /// let mut workspace = Workspace::new();
     /// let flat = [128u8; 64 * 64];
     /// let flat = ImageView::packed(&flat, 64, 64).unwrap();
-    /// let flow = matcher.flow(&flat, &flat)?;
+    /// let flow = matcher.flow(&flat, &flat, &mut workspace)?;
     /// assert_eq!((flow.quality, flow.valid_blocks), (0, 0));
     /// let small = ImageView::packed(&[0; 63 * 64], 63, 64).unwrap();
-    /// assert_eq!(matcher.flow(&small, &small), Err(Error::FrameTooSmall));
-    /// assert_eq!(matcher.flow(&flat, &small), Err(Error::FrameSizeMismatch));
+    /// assert_eq!(matcher.flow(&small, &small, &mut workspace), Err(Error::FrameTooSmall));
+    /// assert_eq!(matcher.flow(&flat, &small, &mut workspace), Err(Error::FrameSizeMismatch));
     /// # Ok::<(), px4flow::Error>(())
     /// ```
-    pub fn flow(&self, prev: &ImageView<'_>, next: &ImageView<'_>) -> Result<Flow, Error> {
+    pub fn flow(
+        &self,
+        prev: &ImageView<'_>,
+        next: &ImageView<'_>,
+        workspace: &mut Workspace,
+    ) -> Result<Flow, Error> {
         let mut blocks = [BlockMatch::default(); BLOCKS];
-        self.flow_with_blocks(prev, next, &mut blocks)
+        self.flow_with_blocks(prev, next, workspace, &mut blocks)
     }
 
     /// Like [`BlockMatcher::flow`], with every block's match written to `blocks`, row by row.
     ///
     /// ```
     /// use kestrel::frame::ImageView;
-    /// use px4flow::{BlockMatcher, BlockStatus, Config, BLOCKS};
+    /// use px4flow::{BlockMatcher, BlockStatus, Config, Workspace, BLOCKS};
     /// let matcher = BlockMatcher::new(Config::default())?;
     /// let flat = [0u8; 64 * 64];
     /// let flat = ImageView::packed(&flat, 64, 64).unwrap();
     /// let mut blocks = [Default::default(); BLOCKS];
-    /// matcher.flow_with_blocks(&flat, &flat, &mut blocks)?;
+    /// matcher.flow_with_blocks(&flat, &flat, &mut Workspace::new(), &mut blocks)?;
     /// assert!(blocks.iter().all(|b| b.status == BlockStatus::Flat));
     /// assert_eq!((blocks[6].x, blocks[6].y), (15, 15));
     /// # Ok::<(), px4flow::Error>(())
@@ -344,13 +354,15 @@ impl BlockMatcher {
         &self,
         prev: &ImageView<'_>,
         next: &ImageView<'_>,
+        workspace: &mut Workspace,
         blocks: &mut [BlockMatch; BLOCKS],
     ) -> Result<Flow, Error> {
         if !prev.same_size(next) {
             return Err(Error::FrameSizeMismatch);
         }
-        let prev = Crop::centre(prev)?;
-        let next = Crop::centre(next)?;
+        copy_centre(prev, &mut workspace.prev)?;
+        copy_centre(next, &mut workspace.next)?;
+        let (prev, next) = (&workspace.prev, &workspace.next);
         let mut valid = 0u8;
         let mut sum = (0i32, 0i32);
         let cells = self
@@ -358,7 +370,7 @@ impl BlockMatcher {
             .iter()
             .flat_map(|&y| self.origins.iter().map(move |&x| (x, y)));
         for ((x, y), block) in cells.zip(blocks.iter_mut()) {
-            *block = self.match_block(&prev, &next, usize::from(x), usize::from(y));
+            *block = self.match_block(prev, next, usize::from(x), usize::from(y));
             block.x = x;
             block.y = y;
             if block.status == BlockStatus::Matched {
@@ -386,8 +398,8 @@ impl BlockMatcher {
 
     /// The texture test, the search and the refinement of the block at (`x`, `y`) of the
     /// crop. The placement in [`BlockMatcher::new`] keeps every pixel they read inside it.
-    fn match_block(&self, prev: &Crop<'_>, next: &Crop<'_>, x: usize, y: usize) -> BlockMatch {
-        let texture = prev.texture(x, y);
+    fn match_block(&self, prev: &Crop, next: &Crop, x: usize, y: usize) -> BlockMatch {
+        let texture = texture(prev, x, y);
         let mut block = BlockMatch {
             texture,
             sad: u32::MAX,
@@ -396,7 +408,7 @@ impl BlockMatcher {
         if texture < self.config.feature_threshold {
             return block;
         }
-        let Some(template) = prev.block(x, y) else {
+        let Some(template) = template(prev, x, y) else {
             return block;
         };
         // The search, in flow.c's order: rows of shifts from the top, the first strictly
@@ -406,11 +418,9 @@ impl BlockMatcher {
         let side = radius.wrapping_mul(2).wrapping_add(1);
         let mut best = (u32::MAX, 0usize, 0usize);
         for row in 0..side {
-            let Some(rows) = next.rows(top.wrapping_add(row)) else {
-                continue;
-            };
+            let start = offset_of(left, top.wrapping_add(row));
             for column in 0..side {
-                let sad = sad_8x8(&template, rows, left.wrapping_add(column));
+                let sad = sad_8x8(&template, next, start.wrapping_add(column));
                 if sad < best.0 {
                     best = (sad, column, row);
                 }
@@ -422,9 +432,9 @@ impl BlockMatcher {
             block.status = BlockStatus::Rejected;
             return block;
         }
-        let (dx, dy) = (offset(column, radius), offset(row, radius));
+        let (dx, dy) = (shift(column, radius), shift(row, radius));
         let (mx, my) = (left.wrapping_add(column), top.wrapping_add(row));
-        let (sx, sy) = next.half_pixel(&template, mx, my, sad);
+        let (sx, sy) = half_pixel(next, &template, mx, my, sad);
         block.half_px = (
             dx.wrapping_mul(2).wrapping_add(sx),
             dy.wrapping_mul(2).wrapping_add(sy),
@@ -435,207 +445,224 @@ impl BlockMatcher {
 }
 
 /// `index - radius` as a signed shift (both at most 2 x 16 + 1, so it fits an `i8`).
-fn offset(index: usize, radius: usize) -> i8 {
+fn shift(index: usize, radius: usize) -> i8 {
     let shift = i16::try_from(index)
         .unwrap_or(0)
         .wrapping_sub(i16::try_from(radius).unwrap_or(0));
     i8::try_from(shift).unwrap_or(0)
 }
 
+/// Storage for the matcher: the central crops of both frames, 8 KB. Keep one per matcher
+/// (in a `static` on a microcontroller) and lend it to every call.
+///
+/// ```
+/// let workspace = px4flow::Workspace::new();
+/// assert_eq!(core::mem::size_of_val(&workspace), 2 * 64 * 64);
+/// ```
+#[derive(Debug, Clone)]
+// The next frame's crop first: the search reads it at the workspace's own address plus small
+// offsets, which Thumb-2 loads encode in the instruction (up to 4095 bytes).
+#[repr(C)]
+pub struct Workspace {
+    next: Crop,
+    prev: Crop,
+}
+
+impl Workspace {
+    /// A zeroed workspace (a `const fn`, for statics).
+    ///
+    /// ```
+    /// static mut WORKSPACE: px4flow::Workspace = px4flow::Workspace::new();
+    /// ```
+    pub const fn new() -> Self {
+        Self {
+            next: [0; CROP * CROP],
+            prev: [0; CROP * CROP],
+        }
+    }
+}
+
+impl Default for Workspace {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A central crop, row by row, [`CROP`] bytes apart: PX4FLOW's 64x64 image. Its fixed stride
+/// lets every read of a block use constant offsets, as flow.c's assembly does.
+type Crop = [u8; CROP * CROP];
+
 /// A block's 8 rows of 8 pixels, as two little-endian words per row.
 type Template = [[u32; 2]; BLOCK];
 
-/// The central [`CROP`] x [`CROP`] pixels of a frame, by rows.
-struct Crop<'a> {
-    rows: [&'a [u8; CROP]; CROP],
+/// Bytes from the first pixel of an 8x8 block to the end of its last row.
+const BLOCK_SPAN: usize = (BLOCK - 1) * CROP + BLOCK;
+/// The same for the 10x10 pixels around a block that the half-pixel refinement reads.
+const AROUND_SPAN: usize = (BLOCK + 1) * CROP + BLOCK + 2;
+/// The same for the 4x4 centre of a block that the texture test reads.
+const CENTRE_SPAN: usize = 3 * CROP + 4;
+
+/// Copies the central crop of `frame` into `crop`, or refuses a frame smaller than it.
+fn copy_centre(frame: &ImageView<'_>, crop: &mut Crop) -> Result<(), Error> {
+    let left = frame
+        .width()
+        .checked_sub(CROP)
+        .ok_or(Error::FrameTooSmall)?
+        / 2;
+    let top = frame
+        .height()
+        .checked_sub(CROP)
+        .ok_or(Error::FrameTooSmall)?
+        / 2;
+    for (y, row) in crop.chunks_exact_mut(CROP).enumerate() {
+        let pixels = frame.row(top.saturating_add(y));
+        let pixels = pixels
+            .get(left..left.saturating_add(CROP))
+            .ok_or(Error::FrameTooSmall)?;
+        row.copy_from_slice(pixels);
+    }
+    Ok(())
 }
 
-/// The row [`Crop::centre`] starts from; every row is replaced or the frame refused.
-static EMPTY_ROW: [u8; CROP] = [0; CROP];
-
-impl<'a> Crop<'a> {
-    /// The central crop of `frame`, or [`Error::FrameTooSmall`].
-    fn centre(frame: &ImageView<'a>) -> Result<Self, Error> {
-        let left = frame
-            .width()
-            .checked_sub(CROP)
-            .ok_or(Error::FrameTooSmall)?
-            / 2;
-        let top = frame
-            .height()
-            .checked_sub(CROP)
-            .ok_or(Error::FrameTooSmall)?
-            / 2;
-        let mut rows = [&EMPTY_ROW; CROP];
-        for (y, row) in rows.iter_mut().enumerate() {
-            let pixels = frame.row(top.saturating_add(y));
-            *row = pixels
-                .get(left..left.saturating_add(CROP))
-                .and_then(|pixels| pixels.try_into().ok())
-                .ok_or(Error::FrameTooSmall)?;
-        }
-        Ok(Self { rows })
-    }
-
-    /// Rows `y..y + 8`, or `None` past the crop.
-    #[inline(always)]
-    fn rows(&self, y: usize) -> Option<&[&'a [u8; CROP]; BLOCK]> {
-        self.rows.get(y..y.checked_add(BLOCK)?)?.try_into().ok()
-    }
-
-    /// The block at (`x`, `y`) as words.
-    fn block(&self, x: usize, y: usize) -> Option<Template> {
-        let mut template = [[0; 2]; BLOCK];
-        for (words, row) in template.iter_mut().zip(self.rows(y)?) {
-            *words = eight(row, x)?;
-        }
-        Some(template)
-    }
-
-    /// flow.c's `compute_diff`: over the central 4x4 of the block at (`x`, `y`), the absolute
-    /// differences of vertically neighbouring pixels (three pairs of rows) and of horizontally
-    /// neighbouring ones (three pairs of columns, each column packed into a word); 0 when the
-    /// block is not inside the crop.
-    fn texture(&self, x: usize, y: usize) -> u32 {
-        let (x, y) = (x.wrapping_add(2), y.wrapping_add(2));
-        let row = |dy: usize| -> Option<[u8; 4]> {
-            let pixels = self.rows.get(y.checked_add(dy)?)?;
-            pixels.get(x..x.checked_add(4)?)?.try_into().ok()
-        };
-        let (Some(r0), Some(r1), Some(r2), Some(r3)) = (row(0), row(1), row(2), row(3)) else {
-            return 0;
-        };
-        let word = u32::from_le_bytes;
-        let mut acc = usada8(word(r0), word(r1), 0);
-        acc = usada8(word(r1), word(r2), acc);
-        acc = usada8(word(r2), word(r3), acc);
-        // Column k packed top to bottom from the most significant byte, as flow.c packs it.
-        let column = |k: usize| {
-            let pixel = |r: &[u8; 4]| r.get(k).copied().unwrap_or(0);
-            u32::from_be_bytes([pixel(&r0), pixel(&r1), pixel(&r2), pixel(&r3)])
-        };
-        let (c0, c1, c2, c3) = (column(0), column(1), column(2), column(3));
-        acc = usada8(c0, c1, acc);
-        acc = usada8(c1, c2, acc);
-        usada8(c2, c3, acc)
-    }
-
-    /// flow.c's `compute_subpixel`: the SADs of `template` against the 8 half-pixel neighbours
-    /// of the match at (`x`, `y`), and the half-pixel step (-1, 0 or 1 per axis) towards the
-    /// first one below `sad`, the integer match's, or (0, 0) if none is.
-    ///
-    /// Directions 0-7 run clockwise on screen (y down) from the right: right, down-right, down,
-    /// down-left, left, up-left, up, up-right. The straight neighbours are the halving adds of
-    /// the match's pixels with their neighbours; the diagonals average two of those again.
-    fn half_pixel(&self, template: &Template, x: usize, y: usize, sad: u32) -> (i8, i8) {
-        const STEPS: [(i8, i8); 8] = [
-            (1, 0),
-            (1, 1),
-            (0, 1),
-            (-1, 1),
-            (-1, 0),
-            (-1, -1),
-            (0, -1),
-            (1, -1),
-        ];
-        // Rows y - 1 ..= y + 8, each as the words at x - 1, x, x + 1 and x + 3, x + 4, x + 5.
-        let mut words = [[0u32; 6]; BLOCK + 2];
-        let (Some(left), Some(top)) = (x.checked_sub(1), y.checked_sub(1)) else {
-            return (0, 0);
-        };
-        for (k, row_words) in words.iter_mut().enumerate() {
-            let Some(row) = self.rows.get(top.wrapping_add(k)) else {
-                return (0, 0);
-            };
-            let Some(&[p0, p1, p2, p3, p4, p5, p6, p7, p8, p9]) =
-                row.get(left..left.wrapping_add(10))
-            else {
-                return (0, 0);
-            };
-            let w = u32::from_le_bytes;
-            *row_words = [
-                w([p0, p1, p2, p3]),
-                w([p1, p2, p3, p4]),
-                w([p2, p3, p4, p5]),
-                w([p4, p5, p6, p7]),
-                w([p5, p6, p7, p8]),
-                w([p6, p7, p8, p9]),
-            ];
-        }
-        let mut acc = [0u32; 8];
-        for (k, row_template) in template.iter().enumerate() {
-            let (Some(above), Some(here), Some(below)) = (
-                words.get(k),
-                words.get(k.wrapping_add(1)),
-                words.get(k.wrapping_add(2)),
-            ) else {
-                return (0, 0);
-            };
-            for (half, &t) in row_template.iter().enumerate() {
-                // The words left of, at and right of the match's 4 pixels in this half.
-                let i = half.wrapping_mul(3);
-                let at = |r: &[u32; 6], d: usize| r.get(i.wrapping_add(d)).copied().unwrap_or(0);
-                let (a_l, a_c, a_r) = (at(above, 0), at(above, 1), at(above, 2));
-                let (h_l, h_c, h_r) = (at(here, 0), at(here, 1), at(here, 2));
-                let (b_l, b_c, b_r) = (at(below, 0), at(below, 1), at(below, 2));
-                let s0 = uhadd8(h_c, h_r);
-                let s1 = uhadd8(b_c, b_r);
-                let s2 = uhadd8(h_c, b_c);
-                let s3 = uhadd8(b_c, b_l);
-                let s4 = uhadd8(h_c, h_l);
-                let s5 = uhadd8(a_c, a_l);
-                let s6 = uhadd8(h_c, a_c);
-                let s7 = uhadd8(a_c, a_r);
-                let neighbours = [
-                    s0,
-                    uhadd8(s0, s1),
-                    s2,
-                    uhadd8(s3, s4),
-                    s4,
-                    uhadd8(s4, s5),
-                    s6,
-                    uhadd8(s7, s0),
-                ];
-                for (sum, neighbour) in acc.iter_mut().zip(neighbours) {
-                    *sum = usada8(t, neighbour, *sum);
-                }
-            }
-        }
-        let mut best = (sad, (0, 0));
-        for (&sum, &step) in acc.iter().zip(&STEPS) {
-            if sum < best.0 {
-                best = (sum, step);
-            }
-        }
-        best.1
-    }
-}
-
-/// Pixels `x..x + 8` of `row` as two little-endian words, or `None` past its end.
+/// The offset of pixel (`x`, `y`) in a crop (wrapping for coordinates off it, which the
+/// reads then refuse).
 #[inline(always)]
-fn eight(row: &[u8; CROP], x: usize) -> Option<[u32; 2]> {
-    let &[p0, p1, p2, p3, p4, p5, p6, p7] = row.get(x..x.checked_add(BLOCK)?)? else {
-        return None;
+fn offset_of(x: usize, y: usize) -> usize {
+    y.wrapping_mul(CROP).wrapping_add(x)
+}
+
+/// The `N` bytes of `crop` from `offset`, or `None` past its end.
+#[inline(always)]
+fn span<const N: usize>(crop: &Crop, offset: usize) -> Option<&[u8; N]> {
+    crop.get(offset..offset.checked_add(N)?)?.try_into().ok()
+}
+
+/// The little-endian word at `offset` of `bytes` (0 past its end: with the constant offsets
+/// used here, never).
+#[inline(always)]
+fn word<const N: usize>(bytes: &[u8; N], offset: usize) -> u32 {
+    match bytes.get(offset..offset.wrapping_add(4)) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => 0,
+    }
+}
+
+/// The block at (`x`, `y`) as words.
+fn template(crop: &Crop, x: usize, y: usize) -> Option<Template> {
+    let pixels = span::<BLOCK_SPAN>(crop, offset_of(x, y))?;
+    let mut template = [[0; 2]; BLOCK];
+    for (k, words) in template.iter_mut().enumerate() {
+        let row = k.wrapping_mul(CROP);
+        *words = [word(pixels, row), word(pixels, row.wrapping_add(4))];
+    }
+    Some(template)
+}
+
+/// The SAD of `template` and the 8x8 pixels of `crop` from `offset`: two USADA8 per row, as
+/// flow.c's `ABSDIFF`; `u32::MAX` if the block is not inside the crop.
+#[inline(always)]
+fn sad_8x8(template: &Template, crop: &Crop, offset: usize) -> u32 {
+    let Some(pixels) = span::<BLOCK_SPAN>(crop, offset) else {
+        return u32::MAX;
     };
-    Some([
-        u32::from_le_bytes([p0, p1, p2, p3]),
-        u32::from_le_bytes([p4, p5, p6, p7]),
-    ])
-}
-
-/// The SAD of `template` and the 8x8 pixels of `rows` from column `x`: two USADA8 per row;
-/// `u32::MAX` if the block is not inside the crop.
-#[inline(always)]
-fn sad_8x8(template: &Template, rows: &[&[u8; CROP]; BLOCK], x: usize) -> u32 {
     let mut acc = 0;
-    for (&[t0, t1], row) in template.iter().zip(rows) {
-        let Some([w0, w1]) = eight(row, x) else {
-            return u32::MAX;
-        };
-        acc = usada8(t0, w0, acc);
-        acc = usada8(t1, w1, acc);
+    for (k, &[t0, t1]) in template.iter().enumerate() {
+        let row = k.wrapping_mul(CROP);
+        acc = usada8(t0, word(pixels, row), acc);
+        acc = usada8(t1, word(pixels, row.wrapping_add(4)), acc);
     }
     acc
+}
+
+/// flow.c's `compute_diff`: over the central 4x4 of the block at (`x`, `y`), the absolute
+/// differences of vertically neighbouring pixels (three pairs of rows) and of horizontally
+/// neighbouring ones (three pairs of columns, each column packed into a word); 0 when the
+/// block is not inside the crop.
+fn texture(crop: &Crop, x: usize, y: usize) -> u32 {
+    let Some(pixels) = span::<CENTRE_SPAN>(crop, offset_of(x.wrapping_add(2), y.wrapping_add(2)))
+    else {
+        return 0;
+    };
+    let rows = [0, CROP, 2 * CROP, 3 * CROP].map(|row| word(pixels, row));
+    let [r0, r1, r2, r3] = rows;
+    let mut acc = usada8(r0, r1, 0);
+    acc = usada8(r1, r2, acc);
+    acc = usada8(r2, r3, acc);
+    // Column k packed top to bottom from the most significant byte, as flow.c packs it.
+    let [c0, c1, c2, c3] = [0, 1, 2, 3].map(|k| {
+        let pixel = |row: u32| row.to_le_bytes().get(k).copied().unwrap_or(0);
+        u32::from_be_bytes(rows.map(pixel))
+    });
+    acc = usada8(c0, c1, acc);
+    acc = usada8(c1, c2, acc);
+    usada8(c2, c3, acc)
+}
+
+/// flow.c's `compute_subpixel`: the SADs of `template` against the 8 half-pixel neighbours of
+/// the match at (`x`, `y`), and the half-pixel step (-1, 0 or 1 per axis) towards the first
+/// one below `sad`, the integer match's, or (0, 0) if none is.
+///
+/// Directions 0-7 run clockwise on screen (y down) from the right: right, down-right, down,
+/// down-left, left, up-left, up, up-right. The straight neighbours are the halving adds of the
+/// match's pixels with their neighbours; the diagonals average two of those again.
+fn half_pixel(crop: &Crop, template: &Template, x: usize, y: usize, sad: u32) -> (i8, i8) {
+    const STEPS: [(i8, i8); 8] = [
+        (1, 0),
+        (1, 1),
+        (0, 1),
+        (-1, 1),
+        (-1, 0),
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+    ];
+    // The 10x10 pixels from (x - 1, y - 1).
+    let origin = offset_of(x.wrapping_sub(1), y.wrapping_sub(1));
+    let Some(pixels) = span::<AROUND_SPAN>(crop, origin) else {
+        return (0, 0);
+    };
+    let mut acc = [0u32; 8];
+    for (k, row_template) in template.iter().enumerate() {
+        // Row k of the match is row k + 1 of the 10x10 pixels.
+        let here = k.wrapping_add(1).wrapping_mul(CROP);
+        let (above, below) = (here.wrapping_sub(CROP), here.wrapping_add(CROP));
+        for (half, &t) in row_template.iter().enumerate() {
+            // The words left of, at and right of the match's 4 pixels in this half.
+            let column = half.wrapping_mul(4);
+            let at = |row: usize, d: usize| word(pixels, row.wrapping_add(column).wrapping_add(d));
+            let (a_l, a_c, a_r) = (at(above, 0), at(above, 1), at(above, 2));
+            let (h_l, h_c, h_r) = (at(here, 0), at(here, 1), at(here, 2));
+            let (b_l, b_c, b_r) = (at(below, 0), at(below, 1), at(below, 2));
+            let s0 = uhadd8(h_c, h_r);
+            let s1 = uhadd8(b_c, b_r);
+            let s2 = uhadd8(h_c, b_c);
+            let s3 = uhadd8(b_c, b_l);
+            let s4 = uhadd8(h_c, h_l);
+            let s5 = uhadd8(a_c, a_l);
+            let s6 = uhadd8(h_c, a_c);
+            let s7 = uhadd8(a_c, a_r);
+            let neighbours = [
+                s0,
+                uhadd8(s0, s1),
+                s2,
+                uhadd8(s3, s4),
+                s4,
+                uhadd8(s4, s5),
+                s6,
+                uhadd8(s7, s0),
+            ];
+            for (sum, neighbour) in acc.iter_mut().zip(neighbours) {
+                *sum = usada8(t, neighbour, *sum);
+            }
+        }
+    }
+    let mut best = (sad, (0, 0));
+    for (&sum, &step) in acc.iter().zip(&STEPS) {
+        if sum < best.0 {
+            best = (sum, step);
+        }
+    }
+    best.1
 }
 
 #[cfg(test)]
@@ -669,14 +696,27 @@ mod tests {
 
     #[test]
     fn texture_counts_the_central_4x4_differences() {
-        // A horizontal ramp of 10 per column: 12 horizontal differences of 10, no vertical.
+        // A horizontal ramp of 3 per column: 12 horizontal differences of 3, no vertical.
         let pixels: Vec<u8> = (0..64 * 64).map(|i| ((i % 64) * 3) as u8).collect();
         let view = ImageView::packed(&pixels, 64, 64).unwrap();
-        let crop = Crop::centre(&view).unwrap();
-        assert_eq!(crop.texture(5, 5), 12 * 3);
-        // A vertical ramp: 12 vertical differences.
+        let mut crop = [0; CROP * CROP];
+        copy_centre(&view, &mut crop).unwrap();
+        assert_eq!(texture(&crop, 5, 5), 12 * 3);
+        // A vertical ramp of 5 per row: 12 vertical differences.
         let pixels: Vec<u8> = (0..64 * 64).map(|i| ((i / 64) * 5) as u8).collect();
         let view = ImageView::packed(&pixels, 64, 64).unwrap();
-        assert_eq!(Crop::centre(&view).unwrap().texture(15, 25), 12 * 5);
+        copy_centre(&view, &mut crop).unwrap();
+        assert_eq!(texture(&crop, 15, 25), 12 * 5);
+    }
+
+    #[test]
+    fn the_crop_is_the_frame_centre() {
+        let pixels: Vec<u8> = (0..160 * 120).map(|i| (i % 160 + i / 160) as u8).collect();
+        let view = ImageView::packed(&pixels, 160, 120).unwrap();
+        let mut crop = [0; CROP * CROP];
+        copy_centre(&view, &mut crop).unwrap();
+        // (48, 28) of the frame is (0, 0) of the crop.
+        assert_eq!(crop[0], (48 + 28) as u8);
+        assert_eq!(crop[63 * 64 + 63], (48 + 63 + 28 + 63) as u8);
     }
 }

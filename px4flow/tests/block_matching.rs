@@ -14,7 +14,9 @@
 
 use host_sim::synth::{pair, Homography, SceneSpec, SplitMix64};
 use kestrel::frame::ImageView;
-use px4flow::{BlockMatch, BlockMatcher, BlockStatus, Config, Error, Flow, BLOCKS, CROP};
+use px4flow::{
+    BlockMatch, BlockMatcher, BlockStatus, Config, Error, Flow, Workspace, BLOCKS, CROP,
+};
 
 const W: usize = 160;
 const H: usize = 120;
@@ -26,13 +28,16 @@ fn matcher() -> BlockMatcher {
     BlockMatcher::new(Config::default()).unwrap()
 }
 
+/// The flow by the default matcher.
+fn flow(prev: &ImageView<'_>, next: &ImageView<'_>) -> Result<Flow, Error> {
+    matcher().flow(prev, next, &mut Workspace::new())
+}
+
 /// The flow between the scene of `seed` and the same scene moved by (`dx`, `dy`) px.
 fn flow_of_shift(seed: u64, noise: f64, dx: f64, dy: f64) -> Flow {
     let spec = SceneSpec::new(W, H, seed).with_noise(noise);
     let (prev, next) = pair(&spec, &Homography::translation(dx, dy));
-    matcher()
-        .flow(&prev.view().unwrap(), &next.view().unwrap())
-        .unwrap()
+    flow(&prev.view().unwrap(), &next.view().unwrap()).unwrap()
 }
 
 fn error(flow: &Flow, dx: f64, dy: f64) -> f64 {
@@ -122,7 +127,7 @@ fn flat_frames_give_quality_0() {
         let flat = ImageView::packed(&flat, W, H).unwrap();
         let mut blocks = [BlockMatch::default(); BLOCKS];
         let flow = matcher()
-            .flow_with_blocks(&flat, &flat, &mut blocks)
+            .flow_with_blocks(&flat, &flat, &mut Workspace::new(), &mut blocks)
             .unwrap();
         assert_eq!(flow, Flow::default());
         assert!(blocks.iter().all(|b| b.status == BlockStatus::Flat));
@@ -131,7 +136,7 @@ fn flat_frames_give_quality_0() {
     // enough blocks (measured: at most 3 of 25 pass).
     for seed in 0..10 {
         let (prev, next) = (noise_frame(seed, 1.0), noise_frame(seed + 100, 1.0));
-        let flow = matcher().flow(&view(&prev), &view(&next)).unwrap();
+        let flow = flow(&view(&prev), &view(&next)).unwrap();
         assert_eq!(flow.quality, 0, "seed {seed}: {flow:?}");
     }
     // A scene whose crop is nearly flat (seed 5: 5 of 25 blocks textured).
@@ -146,7 +151,7 @@ fn sensor_noise_alone_passes_the_texture_test_as_in_px4flow() {
     // pure noise gives a high quality and a random flow.
     for seed in 0..5 {
         let (prev, next) = (noise_frame(seed, 3.0), noise_frame(seed + 100, 3.0));
-        let flow = matcher().flow(&view(&prev), &view(&next)).unwrap();
+        let flow = flow(&view(&prev), &view(&next)).unwrap();
         assert!(flow.quality >= 200, "seed {seed}: {flow:?}");
     }
 }
@@ -177,27 +182,18 @@ fn motion_beyond_the_search_radius_is_never_reported_correctly() {
 
 #[test]
 fn bad_sizes_are_errors() {
-    let m = matcher();
     let big = vec![0u8; W * H];
     let big = view(&big);
     for (w, h) in [(CROP - 1, CROP), (CROP, CROP - 1), (1, 1), (200, 40)] {
         let small = vec![7u8; w * h];
         let small = ImageView::packed(&small, w, h).unwrap();
-        assert_eq!(m.flow(&small, &small), Err(Error::FrameTooSmall), "{w}x{h}");
-        assert_eq!(
-            m.flow(&big, &small),
-            Err(Error::FrameSizeMismatch),
-            "{w}x{h}"
-        );
-        assert_eq!(
-            m.flow(&small, &big),
-            Err(Error::FrameSizeMismatch),
-            "{w}x{h}"
-        );
+        assert_eq!(flow(&small, &small), Err(Error::FrameTooSmall), "{w}x{h}");
+        assert_eq!(flow(&big, &small), Err(Error::FrameSizeMismatch), "{w}x{h}");
+        assert_eq!(flow(&small, &big), Err(Error::FrameSizeMismatch), "{w}x{h}");
     }
     let other = vec![0u8; H * W];
     let transposed = ImageView::packed(&other, H, W).unwrap();
-    assert_eq!(m.flow(&big, &transposed), Err(Error::FrameSizeMismatch));
+    assert_eq!(flow(&big, &transposed), Err(Error::FrameSizeMismatch));
     let wide = Config {
         search_radius: 17,
         ..Config::default()
@@ -218,9 +214,7 @@ fn the_smallest_frame_and_padded_rows_give_the_same_flow() {
     // rows: the same pixels, the same flow.
     let spec = SceneSpec::new(W, H, 2);
     let (prev, next) = pair(&spec, &Homography::translation(1.5, -2.0));
-    let whole = matcher()
-        .flow(&prev.view().unwrap(), &next.view().unwrap())
-        .unwrap();
+    let whole = flow(&prev.view().unwrap(), &next.view().unwrap()).unwrap();
     let crop = |frame: &host_sim::Frame| -> Vec<u8> {
         let (left, top) = ((W - CROP) / 2, (H - CROP) / 2);
         (top..top + CROP)
@@ -228,12 +222,11 @@ fn the_smallest_frame_and_padded_rows_give_the_same_flow() {
             .collect()
     };
     let (p, n) = (crop(&prev), crop(&next));
-    let packed = matcher()
-        .flow(
-            &ImageView::packed(&p, CROP, CROP).unwrap(),
-            &ImageView::packed(&n, CROP, CROP).unwrap(),
-        )
-        .unwrap();
+    let packed = flow(
+        &ImageView::packed(&p, CROP, CROP).unwrap(),
+        &ImageView::packed(&n, CROP, CROP).unwrap(),
+    )
+    .unwrap();
     assert_eq!(packed, whole);
     let padded = |pixels: &[u8]| -> Vec<u8> {
         pixels
@@ -242,12 +235,11 @@ fn the_smallest_frame_and_padded_rows_give_the_same_flow() {
             .collect()
     };
     let (p, n) = (padded(&p), padded(&n));
-    let strided = matcher()
-        .flow(
-            &ImageView::new(&p, CROP, CROP, CROP + 11).unwrap(),
-            &ImageView::new(&n, CROP, CROP, CROP + 11).unwrap(),
-        )
-        .unwrap();
+    let strided = flow(
+        &ImageView::new(&p, CROP, CROP, CROP + 11).unwrap(),
+        &ImageView::new(&n, CROP, CROP, CROP + 11).unwrap(),
+    )
+    .unwrap();
     assert_eq!(strided, whole);
     assert!(
         whole.quality > 200 && error(&whole, 1.5, -2.0) < 0.1,

@@ -19,6 +19,7 @@ mod memory;
 mod meter;
 mod pipeline;
 mod profile;
+mod px4flow;
 mod report;
 mod scene;
 mod stack;
@@ -53,6 +54,7 @@ fn main() -> ! {
     memory::print();
     let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked;
     profile::run(&meter, pipeline);
+    px4flow::run(&meter);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());
     if passed {
         hprintln!("result pass");

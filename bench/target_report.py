@@ -88,6 +88,8 @@ def memory(elf_path, memory_x_path):
     unique = {(addr, size): name for name, addr, size, _ in symbols if in_region(addr, "FLASH")}
     library = sum(size for (_, size), name in unique.items() if "kestrel" in name)
     mavlink = sum(size for (_, size), name in unique.items() if "mavlink" in name and "kestrel" not in name)
+    # The px4flow crate and firmware/src/px4flow.rs, into which LTO inlines the matcher.
+    px4flow = sum(size for (_, size), name in unique.items() if "px4flow" in name)
     return {
         "sections": sections,
         "static_ram": static_ram,
@@ -96,6 +98,7 @@ def memory(elf_path, memory_x_path):
         "flash": flash - frames,
         "library": library,
         "mavlink": mavlink,
+        "px4flow": px4flow,
     }
 
 
@@ -209,6 +212,7 @@ def main(argv):
     out.append(row("flash without the test frames", mem["flash"], "vector table, code, constants, .data image"))
     out.append(row("  of which Kestrel (symbol sizes)", mem["library"], f"budget {BUDGET_LIBRARY_FLASH}"))
     out.append(row("  of which the mavlink crate", mem["mavlink"]))
+    out.append(row("  of which the PX4FLOW baseline", mem["px4flow"], "px4flow crate and its runner"))
     out.append(row("test frames in flash", mem["frames"], "stand-in for the camera"))
     out.append("")
     sensor = one(records, "sensor")
@@ -228,6 +232,7 @@ def main(argv):
                    f"(MAVLink frame: {bad['mavlink_quality']})")
     out.append("")
     out.append(profile(records))
+    out.append(baseline(records))
     out.append("  bad input (each must be refused with quality 0, the frames after it still processed)")
     for bad in records.get("bad_input", []):
         out.append(f"    {bad['case']:<14} -> {bad['outcome']}, quality {bad['quality']} "
@@ -269,6 +274,27 @@ def profile(records):
         lines.append(row("third iteration", three - two, "per point, mostly the same pixel"))
     lines.append("")
     return "\n".join(lines)
+
+
+def baseline(records):
+    """PX4FLOW's block matching on the same frame pairs (firmware/src/px4flow.rs)."""
+    found = records.get("px4flow")
+    header = f"  {'PX4FLOW baseline, per frame pair':<44} {'instructions':>12}  note"
+    if not found:
+        return "\n".join([header, "    not run: the firmware printed no 'px4flow' record", ""])
+    p = found[-1]
+    label = f"SAD block matching, 25 blocks, +-{p['search_radius']} px"
+    return "\n".join([
+        header,
+        row(label, p["instructions_per_frame"],
+            f"USADA8; mean of {p['pairs']} pairs"),
+        row("  mean flow, px/frame", f"{p['flow_x']},{p['flow_y']}",
+            f"the camera moves {records['config'][-1]['motion']}"),
+        row("  worst pair's error", p["flow_error_px"] + " px",
+            "distance from the camera's motion; the object crosses the crop"),
+        row("  lowest quality", p["quality"], f"fewest valid blocks {p['valid_blocks']} of 25"),
+        "",
+    ])
 
 
 if __name__ == "__main__":

@@ -199,7 +199,7 @@ fn atan_small(x: f32) -> f32 {
 }
 
 /// Square root by Newton's method (`core` has none).
-fn sqrt(x: f32) -> f32 {
+pub fn sqrt(x: f32) -> f32 {
     if x.is_nan() || x <= 0.0 {
         return 0.0;
     }

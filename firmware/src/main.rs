@@ -19,6 +19,7 @@ mod memory;
 mod meter;
 mod pipeline;
 mod profile;
+mod px4flow;
 mod report;
 mod scene;
 mod sensor;
@@ -56,6 +57,7 @@ fn main() -> ! {
     let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked;
     let passed = sensor::run(&meter, SENSOR_MEMORY) && passed;
     profile::run(&meter, pipeline);
+    px4flow::run(&meter);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());
     if passed {
         hprintln!("result pass");

@@ -31,6 +31,10 @@ FIRMWARE = os.path.join(ROOT, "firmware")
 ELF = os.path.join(FIRMWARE, "target", "thumbv7em-none-eabihf", "release", "firmware")
 # The first block of this function ends the budget run (see firmware/src/profile.rs).
 STOP_SYMBOL = "7profile3run"
+# A window of the run instead: PROFILE_FROM and PROFILE_TO name symbol fragments (mangled), for
+# example PROFILE_FROM=6sensor3run PROFILE_TO=7profile3run for the flow-sensor preset alone.
+START_SYMBOL = os.environ.get("PROFILE_FROM")
+STOP_SYMBOL = os.environ.get("PROFILE_TO", STOP_SYMBOL)
 # Functions whose own instructions are not counted (symbol name fragments).
 SKIPPED_SYMBOLS = ("9dsp_check3run",)
 
@@ -54,6 +58,7 @@ def trace(log_path):
     executions = collections.Counter()
     skipped = skipped_ranges()
     current = None
+    counting = START_SYMBOL is None
     with open(log_path, errors="replace") as log:
         for line in log:
             if line.startswith("Trace"):
@@ -61,7 +66,8 @@ def trace(log_path):
                 pc = int(inside.split("/", 2)[1], 16)
                 if STOP_SYMBOL in inside:
                     break
-                if not any(start <= pc < end for start, end in skipped):
+                counting = counting or START_SYMBOL in inside
+                if counting and not any(start <= pc < end for start, end in skipped):
                     executions[pc] += 1
             elif line.startswith("IN:"):
                 current = None
@@ -131,7 +137,7 @@ def main(argv):
     total = sum(counts.values())
     symbolizer = shutil.which("llvm-symbolizer")
     functions, lines = by_symbolizer(counts, symbolizer) if symbolizer else by_symbol(counts)
-    print(f"instructions counted: {total} (calibration, budget run, bad input)")
+    print(f"instructions counted: {total} (from {START_SYMBOL or 'the start'} to {STOP_SYMBOL})")
     for title, table in (("by function", functions), ("by source line", lines)):
         if not table:
             continue

@@ -29,6 +29,7 @@ use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
     WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
+use crate::dsp::smlad;
 use crate::frame::ImageView;
 
 /// The packed, row-by-row loops.
@@ -273,9 +274,7 @@ fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correla
     };
     for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
         let run = block.get(offset..offset + n).unwrap_or(&[]);
-        sums[1] = dot(run, t.intensity);
-        sums[2] = dot(run, t.dx);
-        sums[3] = dot(run, t.dy);
+        [sums[1], sums[2], sums[3]] = dot3(run, [t.intensity, t.dx, t.dy]);
     }
     c
 }
@@ -310,30 +309,53 @@ fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
 /// (widths in `correlation.rs`).
 const CORRELATION_CHUNK: usize = 1024;
 
-/// `Σ a[k] b[k]`, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
-fn dot(a: &[i16], b: &[i16]) -> i64 {
-    if a.len() <= CORRELATION_CHUNK {
-        return i64::from(dot_chunk(a, b));
+/// Two neighbouring values as one word, the first in the low half: the operand of SMLAD, and
+/// one 32-bit load on the Cortex-M4, which reads words at any even address. A single value
+/// (the end of an odd run) pairs with a zero.
+#[inline(always)]
+fn pair(v: &[i16]) -> u32 {
+    match *v {
+        [lo, hi] => u32::from(lo as u16) | (u32::from(hi as u16) << 16),
+        [lo] => u32::from(lo as u16),
+        _ => 0,
     }
-    let chunks = a.chunks(CORRELATION_CHUNK).zip(b.chunks(CORRELATION_CHUNK));
-    chunks.map(|(a, b)| i64::from(dot_chunk(a, b))).sum()
 }
 
-/// `Σ a[k] b[k]` of at most [`CORRELATION_CHUNK`] pixel-template products, in pairs so that
-/// LLVM forms `SMLAD` on a Cortex-M4.
+/// The pairs of `v` and its odd last value, if any, as a pair with a zero.
 #[inline(always)]
-fn dot_chunk(a: &[i16], b: &[i16]) -> i32 {
-    let (pairs_a, pairs_b) = (a.chunks_exact(2), b.chunks_exact(2));
-    let mut sum = match (pairs_a.remainder(), pairs_b.remainder()) {
-        (&[x], &[y]) => i32::from(x) * i32::from(y),
-        _ => 0,
-    };
-    for (x, y) in pairs_a.zip(pairs_b) {
-        if let (&[x0, x1], &[y0, y1]) = (x, y) {
-            sum += i32::from(x0) * i32::from(y0) + i32::from(x1) * i32::from(y1);
+fn pairs(v: &[i16]) -> (core::slice::ChunksExact<'_, i16>, u32) {
+    let pairs = v.chunks_exact(2);
+    let tail = pair(pairs.remainder());
+    (pairs, tail)
+}
+
+/// `[Σ a[k] b0[k], Σ a[k] b1[k], Σ a[k] b2[k]]`: each pixel pair of `a` loaded once for three
+/// dual multiply-accumulates, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
+fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
+    let mut total = [0i64; 3];
+    for (k, a) in a.chunks(CORRELATION_CHUNK).enumerate() {
+        let start = k * CORRELATION_CHUNK;
+        let part = b.map(|v| v.get(start..start + a.len()).unwrap_or(&[]));
+        for (t, s) in total.iter_mut().zip(dot3_chunk(a, part)) {
+            *t += i64::from(s);
         }
     }
-    sum
+    total
+}
+
+/// [`dot3`] of at most [`CORRELATION_CHUNK`] values. An odd last value pairs with a zero.
+/// Not inlined, so that its three sums and four pointers keep to registers.
+#[inline(never)]
+fn dot3_chunk(a: &[i16], [b0, b1, b2]: [&[i16]; 3]) -> [i32; 3] {
+    let ((a, at), (b0, t0), (b1, t1), (b2, t2)) = (pairs(a), pairs(b0), pairs(b1), pairs(b2));
+    let (mut s0, mut s1, mut s2) = (smlad(at, t0, 0), smlad(at, t1, 0), smlad(at, t2, 0));
+    for ((x, y0), (y1, y2)) in a.zip(b0).zip(b1.zip(b2)) {
+        let x = pair(x);
+        s0 = smlad(x, pair(y0), s0);
+        s1 = smlad(x, pair(y1), s1);
+        s2 = smlad(x, pair(y2), s2);
+    }
+    [s0, s1, s2]
 }
 
 /// The Scharr derivatives of the template inside its patch.
@@ -489,10 +511,74 @@ fn pixel_row<P: Pixel>(
     }
 }
 
-/// The template's window sums in one pass.
+/// The template's window sums, in two passes of dual multiply-accumulates over the rows (each
+/// row even in length with its zero padding column, so its values pair up): the gradients'
+/// sums and products, then the intensities' with themselves and the gradients. A plain sum
+/// is a multiply-accumulate with ones. The same sums as [`TemplateSums::in_chunks`], which the
+/// flat loops use, with the same 32-bit widths per row of at most 64 values.
 #[inline(never)]
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    TemplateSums::in_chunks::<MAX_ROW>(intensity, dx, dy)
+    let mut s = TemplateSums::default();
+    let rows = intensity
+        .chunks(MAX_ROW + 1)
+        .zip(dx.chunks(MAX_ROW + 1).zip(dy.chunks(MAX_ROW + 1)));
+    for (i, (gx, gy)) in rows {
+        let [gxx, gxy, gyy, sx, sy] = gradient_sums(gx, gy);
+        let [si, sii, six, siy] = intensity_sums(i, gx, gy);
+        s.gxx += i64::from(gxx);
+        s.gxy += i64::from(gxy);
+        s.gyy += i64::from(gyy);
+        s.sx += i64::from(sx);
+        s.sy += i64::from(sy);
+        s.si += i64::from(si);
+        // `ΣI²` of at most 64 values is below 2^32: its 32 bits, read unsigned, are exact.
+        s.sii += i64::from(sii as u32);
+        s.six += i64::from(six);
+        s.siy += i64::from(siy);
+    }
+    s
+}
+
+/// The halves `(1, 1)`: SMLAD with it sums a pair.
+const ONES: u32 = 0x0001_0001;
+
+/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy]` of one stretch of at most 64 values.
+#[inline(never)]
+fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
+    let ((gx, xt), (gy, yt)) = (pairs(gx), pairs(gy));
+    let sums = |x: u32, y: u32, s: [i32; 5]| {
+        [
+            smlad(x, x, s[0]),
+            smlad(x, y, s[1]),
+            smlad(y, y, s[2]),
+            smlad(x, ONES, s[3]),
+            smlad(y, ONES, s[4]),
+        ]
+    };
+    let mut s = sums(xt, yt, [0; 5]);
+    for (x, y) in gx.zip(gy) {
+        s = sums(pair(x), pair(y), s);
+    }
+    s
+}
+
+/// `[Σ I, Σ I² (wrapping), Σ I gx, Σ I gy]` of one stretch of at most 64 values.
+#[inline(never)]
+fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
+    let ((i, it), (gx, xt), (gy, yt)) = (pairs(i), pairs(gx), pairs(gy));
+    let sums = |v: u32, x: u32, y: u32, s: [i32; 4]| {
+        [
+            smlad(v, ONES, s[0]),
+            smlad(v, v, s[1]),
+            smlad(v, x, s[2]),
+            smlad(v, y, s[3]),
+        ]
+    };
+    let mut s = sums(it, xt, yt, [0; 4]);
+    for (v, (x, y)) in i.zip(gx.zip(gy)) {
+        s = sums(pair(v), pair(x), pair(y), s);
+    }
+    s
 }
 
 /// Values summed in 32 bits before widening: as many as the largest window's row (module docs).

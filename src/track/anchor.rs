@@ -26,6 +26,8 @@ const SIDE: usize = 7;
 const SAMPLES: usize = SIDE * SIDE;
 /// Distance between samples, px (a power of two, as a shift).
 const SPACING_SHIFT: u32 = 1;
+/// Pixels per side under the patch, with the last samples' right and lower neighbours.
+const PATCH_SPAN: usize = ((SIDE - 1) << SPACING_SHIFT) + 2;
 
 /// The appearance of a track's feature when it was born.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -244,15 +246,18 @@ impl Moments {
     // Bounded as the type's documentation shows: no operation here can overflow.
     #[allow(clippy::arithmetic_side_effects)]
     fn of(a: &[u8; SAMPLES], b: &[u16; SAMPLES]) -> Self {
-        let (mut sa, mut sb, mut saa, mut sbb, mut sab) = (0i64, 0i64, 0i64, 0i64, 0i64);
+        // In 32 bits, exact: the largest sum, of 49 squares of samples below 2^12, is below
+        // 49 * 2^24 < 2^30.
+        let (mut sa, mut sb, mut saa, mut sbb, mut sab) = (0u32, 0u32, 0u32, 0u32, 0u32);
         for (&x, &y) in a.iter().zip(b) {
-            let (x, y) = (i64::from(x), i64::from(y));
+            let (x, y) = (u32::from(x), u32::from(y));
             sa += x;
             sb += y;
             saa += x * x;
             sbb += y * y;
             sab += x * y;
         }
+        let [sa, sb, saa, sbb, sab] = [sa, sb, saa, sbb, sab].map(i64::from);
         let n = SAMPLES as i64;
         Self {
             covariance: n * sab - sa * sb,
@@ -275,15 +280,10 @@ fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
     let (x0, y0) = (x >> 16, y >> 16);
     // Most patches lie wholly in the frame: read their pixels in place, without clamping.
     let reach = HALF << SPACING_SHIFT;
-    let span = (SIDE - 1) << SPACING_SHIFT;
     let corner = (x0.saturating_sub(reach), y0.saturating_sub(reach));
-    let block = frame.block(corner.0 as isize, corner.1 as isize, span + 2, span + 2);
+    let block = frame.block(corner.0 as isize, corner.1 as isize, PATCH_SPAN, PATCH_SPAN);
     if let Some(block) = block {
-        let stride = frame.stride();
-        return core::array::from_fn(|i| {
-            let (col, row) = ((i % SIDE) << SPACING_SHIFT, (i / SIDE) << SPACING_SHIFT);
-            weights.sample_block(block, row * stride + col, stride)
-        });
+        return weights.sample_rows(block, frame.stride());
     }
     core::array::from_fn(|i| {
         let at = |v: usize| i32::try_from(v).unwrap_or(0) - HALF;
@@ -311,15 +311,34 @@ impl Bilinear {
         }
     }
 
-    /// The block between its pixels `at` and `at + stride + 1`, grey x 16, as
-    /// [`Bilinear::sample`].
+    /// The patch from `block`, its `PATCH_SPAN` x `PATCH_SPAN` pixels `stride` apart (the patch
+    /// wholly in the frame), as [`Bilinear::sample`] would sample it: each sample row from two
+    /// pixel rows read as fixed-length arrays, so no pixel needs a bounds check of its own.
     #[allow(clippy::arithmetic_side_effects)]
-    fn sample_block(&self, block: &[u8], at: usize, stride: usize) -> u16 {
-        let px = |k: usize| u32::from(block.get(k).copied().unwrap_or(0));
-        let below = at.saturating_add(stride);
-        let top = px(at) * (256 - self.fx) + px(at.saturating_add(1)) * self.fx;
-        let bottom = px(below) * (256 - self.fx) + px(below.saturating_add(1)) * self.fx;
-        self.round(top * (256 - self.fy) + bottom * self.fy)
+    fn sample_rows(&self, block: &[u8], stride: usize) -> [u16; SAMPLES] {
+        let mut out = [0u16; SAMPLES];
+        let row = |r: usize| -> Option<&[u8; PATCH_SPAN]> {
+            let start = r.checked_mul(stride)?;
+            block
+                .get(start..start.checked_add(PATCH_SPAN)?)?
+                .try_into()
+                .ok()
+        };
+        let (wx, wy) = ((256 - self.fx, self.fx), (256 - self.fy, self.fy));
+        for (r, samples) in out.chunks_exact_mut(SIDE).enumerate() {
+            let y = r << SPACING_SHIFT;
+            let (Some(top), Some(bottom)) = (row(y), row(y + 1)) else {
+                continue;
+            };
+            for (c, sample) in samples.iter_mut().enumerate() {
+                let x = c << SPACING_SHIFT;
+                let px = |row: &[u8; PATCH_SPAN], x: usize| u32::from(row[x]);
+                let t = px(top, x) * wx.0 + px(top, x + 1) * wx.1;
+                let b = px(bottom, x) * wx.0 + px(bottom, x + 1) * wx.1;
+                *sample = self.round(t * wy.0 + b * wy.1);
+            }
+        }
+        out
     }
 
     /// A sum of weighted pixels (below 2^24, grey x 2^16) rounded to grey x 16.

@@ -90,7 +90,13 @@ mod tests {
             bits ^= bits << 13;
             bits ^= bits >> 17;
             bits ^= bits << 5;
-            for v in [bits as i32, (bits >> 8) as i32, -((bits >> 12) as i32), i32::MIN, i32::MAX] {
+            for v in [
+                bits as i32,
+                (bits >> 8) as i32,
+                -((bits >> 12) as i32),
+                i32::MIN,
+                i32::MAX,
+            ] {
                 let p = super::Point::from_bits(v, v);
                 assert_eq!(p.to_f32().0, p.x.to_num::<f32>(), "{v}");
             }

@@ -590,24 +590,48 @@ impl Tensor {
     }
 }
 
-/// `floor(sqrt(n))`, digit by digit: one compare and subtract per result bit, no division.
-// Integer square root by bits: `root + bit` stays below 2^33 for every u64 input.
-#[allow(clippy::arithmetic_side_effects)]
+/// `floor(sqrt(n))`, exactly: a float estimate refined once and corrected by a step or two.
+///
+/// The estimate is `n · (1/√n)`, the reciprocal root from the classic bit trick and three
+/// Newton steps (relative error below 2^-21 after rounding), so that no square-root function
+/// is needed (core has none without `std`) and the FPU does the work. One more step in
+/// integers, `(n - r²) / 2r` in f32, brings it within one of the root, and the loops settle
+/// the last unit; every comparison is exact in 64 bits (a square that overflows is too big).
+// Float and integer arithmetic on bounded values: `r < 2^32 + 2`, squares checked.
+#[allow(clippy::arithmetic_side_effects, clippy::cast_possible_truncation)]
 fn isqrt(n: u64) -> u64 {
     if n < 2 {
         return n;
     }
-    // The highest power of four not above n.
-    let mut bit = 1u64 << ((63 - n.leading_zeros()) & !1);
-    let (mut rem, mut root) = (n, 0u64);
-    while bit != 0 {
-        if rem >= root + bit {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
+    // Conversions through 32 bits only, which the FPU does in one instruction each (64-bit
+    // ones are library calls on a Cortex-M4); the estimate needs no more precision.
+    let x = (n >> 32) as u32 as f32 * 4_294_967_296.0 + n as u32 as f32;
+    let mut y = f32::from_bits(0x5F37_59DF - (x.to_bits() >> 1));
+    for _ in 0..3 {
+        y *= 1.5 - 0.5 * x * y * y;
+    }
+    // Below 2^32 + 2^9 for every u64: saturating at u32::MAX loses nothing the loops below
+    // cannot restore.
+    let mut root = u64::from((x * y) as u32);
+    if let Some(square) = root.checked_mul(root) {
+        // The distance to n over the slope of the square, in f32: n and the square agree in
+        // their high bits, so the difference fits 32 bits unless the estimate is far off.
+        let gap = n.abs_diff(square);
+        if let Ok(gap) = u32::try_from(gap) {
+            let step = (gap as f32 / (2.0 * root.max(1) as u32 as f32)) as u32;
+            root = if square <= n {
+                root.saturating_add(u64::from(step))
+            } else {
+                root.saturating_sub(u64::from(step)).max(1)
+            };
         }
-        bit >>= 2;
+    }
+    let square_above = |r: u64| r.checked_mul(r).is_none_or(|sq| sq > n);
+    while square_above(root) {
+        root -= 1;
+    }
+    while !square_above(root + 1) {
+        root += 1;
     }
     root
 }

@@ -332,7 +332,8 @@ impl Bilinear {
             };
             for (c, sample) in samples.iter_mut().enumerate() {
                 let x = c << SPACING_SHIFT;
-                let px = |row: &[u8; PATCH_SPAN], x: usize| u32::from(row[x]);
+                let px =
+                    |row: &[u8; PATCH_SPAN], x: usize| u32::from(row.get(x).copied().unwrap_or(0));
                 let t = px(top, x) * wx.0 + px(top, x + 1) * wx.1;
                 let b = px(bottom, x) * wx.0 + px(bottom, x + 1) * wx.1;
                 *sample = self.round(t * wy.0 + b * wy.1);

@@ -296,7 +296,9 @@ impl Follow<'_, '_> {
         let strays = fwd
             .guess
             .is_none_or(|g| distance_sq(fwd.step.position, g) > checked.fb_doubt_sq);
-        turn || track.age == 0 || fwd.fell_back || strays
+        // A new track has no motion of its own: its step is judged against the frame's (the
+        // median step of the others, its seed), and searched without one it always strays.
+        turn || fwd.fell_back || strays
     }
 }
 

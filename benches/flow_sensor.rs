@@ -17,6 +17,11 @@
 
 use host_sim::synth::{Flight, FlightPath, FlightSequence, SceneSpec};
 use host_sim::Frame;
+use kestrel::detect::Corner;
+use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
+use kestrel::lk::scratch_len;
+use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
+use kestrel::Point;
 use px4flow::{BlockMatcher, Config, Workspace};
 
 const WIDTH: usize = 160;
@@ -78,7 +83,61 @@ fn estimators() -> Vec<(&'static str, Estimator)> {
         let flow = matcher.flow(&prev, &next, &mut workspace).ok()?;
         flow.is_valid().then_some((flow.x, flow.y))
     };
-    vec![("PX4FLOW (px4flow, ±4 px)", Box::new(px4flow))]
+    vec![
+        ("PX4FLOW (px4flow, ±4 px)", Box::new(px4flow)),
+        ("Kestrel flow-sensor preset", Box::new(kestrel_preset())),
+    ]
+}
+
+/// `TrackerConfig::flow_sensor()` on one frame pair, started cold on the first frame (no
+/// motion known, so every track is searched on both levels and checked forward-backward), with
+/// the similarity the firmware's sensor fits; its flow is where the fit moves the principal
+/// point. `None` when the fit fails (quality 0).
+fn kestrel_preset() -> impl FnMut(&Frame, &Frame) -> Option<(f32, f32)> {
+    const TRACKS: usize = 25;
+    let config = TrackerConfig::flow_sensor();
+    let mut storage = vec![0u8; tracker_storage_len(WIDTH, HEIGHT, config.pyramid_levels())];
+    let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+    let mut candidates = vec![Corner::default(); 3 * TRACKS];
+    let ransac = Ransac::new(RansacParams {
+        model: ModelKind::Similarity,
+        ..RansacParams::default()
+    })
+    .expect("the similarity fit's settings are valid");
+    move |prev: &Frame, next: &Frame| {
+        let (prev, next) = (prev.view().ok()?, next.view().ok()?);
+        let buffers = TrackerBuffers {
+            storage: &mut storage,
+            lk_scratch: &mut lk_scratch,
+            detect_scratch: &mut [],
+            candidates: &mut candidates,
+        };
+        let mut tracker = Tracker::<TRACKS>::new(config, WIDTH, HEIGHT, buffers).ok()?;
+        tracker.start(prev).ok()?;
+        let born: Vec<(u32, Point)> = tracker
+            .tracks()
+            .iter()
+            .map(|t| (t.id, t.position))
+            .collect();
+        tracker.process(prev, next, None).ok()?;
+        let pairs: Vec<(Point, Point)> = tracker
+            .tracks()
+            .iter()
+            .filter_map(|t| {
+                born.iter()
+                    .find(|(id, _)| *id == t.id)
+                    .map(|&(_, p)| (p, t.position))
+            })
+            .collect();
+        let mut inliers = vec![false; pairs.len()];
+        let motion = ransac.estimate(&pairs, &mut inliers).ok()?;
+        if motion.status != EgoStatus::Ok {
+            return None;
+        }
+        let centre = ((WIDTH as f32 - 1.0) / 2.0, (HEIGHT as f32 - 1.0) / 2.0);
+        let (x, y) = motion.model.apply(centre)?;
+        Some((x - centre.0, y - centre.1))
+    }
 }
 
 /// A flight's frames and the true centre displacement of each pair.

@@ -126,10 +126,10 @@ pub struct TrackerConfig {
     pub fine_search: f32,
     /// Forward-backward schedule, frames: the backward check runs on every track at least
     /// once in this many frames (tracks take turns by id), and on every step that looks
-    /// doubtful: a step without a prediction (a new track's when no other track gives the
-    /// frame's motion), a step that lands more than [`TrackerConfig::fb_doubt`] from its
-    /// prediction (for a new track: from the median step of the others), and one whose
-    /// search fell back on the whole pyramid. A step that agrees with its track's own motion is rarely wrong, and
+    /// doubtful: a track's first step, a step that lands more than
+    /// [`TrackerConfig::fb_doubt`] from its prediction, and one whose search fell back on
+    /// the whole pyramid (searched again from the caller's prediction, or from the track's
+    /// position without one). A step that agrees with its track's own motion is rarely wrong, and
     /// the way back costs as much as the way forth. 1 checks every step.
     pub fb_every: u32,
     /// Distance from its prediction, px, beyond which a step is doubtful and checked

@@ -198,12 +198,21 @@ impl Follow<'_, '_> {
                 });
             }
         }
+        let fell_back = start.is_some_and(|(top, _)| top < full);
+        // A prediction that failed on the fine levels is not trusted on the coarse ones: the
+        // whole pyramid is searched from the caller's prediction, or else from the track's
+        // position, as without any (a camera that stops, or a repeated frame).
+        let guess = match (fell_back, self.predict) {
+            (true, Some(predict)) => Some(predict(track.position)),
+            (true, None) => None,
+            (false, _) => guess,
+        };
         let step = lk.track_point(self.prev, self.next, track.position, guess, scratch)?;
         Ok(Forward {
             step,
             guess,
             top: full,
-            fell_back: start.is_some_and(|(top, _)| top < full),
+            fell_back,
         })
     }
 
@@ -296,9 +305,10 @@ impl Follow<'_, '_> {
         let strays = fwd
             .guess
             .is_none_or(|g| distance_sq(fwd.step.position, g) > checked.fb_doubt_sq);
-        // A new track has no motion of its own: its step is judged against the frame's (the
-        // median step of the others, its seed), and searched without one it always strays.
-        turn || fwd.fell_back || strays
+        // A new track's first step is always checked: agreeing with the frame's motion (its
+        // seed) is not enough, since a window on an edge slides along with it
+        // (tests/hostile_frames.rs: a repeated frame then loses it).
+        turn || track.age == 0 || fwd.fell_back || strays
     }
 }
 

@@ -24,7 +24,7 @@
 //! `correlation.rs`).
 
 use super::correlation::Correlations;
-use super::template::TemplateSums;
+use super::template::{Correction, TemplateSums};
 use super::window::{
     bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
     WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
@@ -115,6 +115,57 @@ impl Loops for Rows {
         }
         clear_padding(layout, j);
     }
+
+    /// One pass over the block `correlate` gathered into `source` for this integer position:
+    /// each sample's bilinear sum as two dual multiply-accumulates (the pixel pair of each row
+    /// against its two weights), corrected and summed at once; nothing is gathered or stored.
+    fn abs_residual(
+        _frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        (source, _): (&mut [i16], &mut [i16]),
+        intensity: &[i16],
+        correction: Correction,
+    ) -> u64 {
+        let p = layout.pitch;
+        let block = source.get(..(layout.win + 1) * p + 1).unwrap_or(&[]);
+        let [w00, w01, w10, w11] = origin.w.map(|w| u32::from(w as u16));
+        let weights = (w00 | (w01 << 16), w10 | (w11 << 16));
+        let rows = row_pairs(block, p).zip(intensity.chunks_exact(p));
+        rows.take(layout.win)
+            .map(|((top, bottom), i_row)| {
+                residual_row(
+                    weights,
+                    top,
+                    bottom,
+                    i_row.get(..layout.win).unwrap_or(&[]),
+                    correction,
+                )
+            })
+            .sum()
+    }
+}
+
+/// [`Rows::abs_residual`] of one row: the samples between `top` and `bottom` (pixel `k` and
+/// `k + 1` of each) against the template row `i`.
+#[inline(never)]
+fn residual_row(
+    (upper, lower): (u32, u32),
+    top: &[i16],
+    bottom: &[i16],
+    i: &[i16],
+    correction: Correction,
+) -> u64 {
+    const ROUND: i32 = 1 << (WEIGHT_BITS - INTENSITY_BITS - 1);
+    let mut total = 0u64;
+    let pixels = top.windows(2).zip(bottom.windows(2));
+    for (&i, (t, b)) in i.iter().zip(pixels) {
+        // The same sum and rounding as `bilinear`, two products per instruction.
+        let sum = smlad(pair(b), lower, smlad(pair(t), upper, ROUND));
+        let j = (sum >> (WEIGHT_BITS - INTENSITY_BITS)) as i16;
+        total += u64::from(correction.distance(i, j));
+    }
+    total
 }
 
 /// Gathers the next window's `(win + 1)` square of source pixels into `source`, rows

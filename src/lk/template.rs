@@ -267,7 +267,8 @@ impl<'s, L: Loops> Template<'s, L> {
 
     /// Mean absolute residual over the next frame's window at `origin` in grey levels (Q16 raw
     /// bits), after the gain and bias correction in gain-bias mode; `c` are the window's
-    /// correlations and `(source, j)` scratch.
+    /// correlations, `source` holds the source block they were computed from (see
+    /// [`Loops::abs_residual`]) and `j` is scratch.
     pub(crate) fn residual(
         &self,
         frame: &ImageView<'_>,
@@ -276,7 +277,6 @@ impl<'s, L: Loops> Template<'s, L> {
         (source, j): (&mut [i16], &mut [i16]),
     ) -> i32 {
         let m = c.match_sums(origin.w);
-        L::sample_window(frame, origin, &self.layout, source, j);
         let gain = self.gain(&m);
         let n = self.n;
         // bias (Q16, grey x 32) = (ΣJ - a ΣI) / n.
@@ -284,33 +284,58 @@ impl<'s, L: Loops> Template<'s, L> {
             Illumination::Plain => 0,
             Illumination::GainBias => ((m.sj << 16) - gain * self.sums.si) / n,
         };
-        let mut total: u64 = 0;
-        let rows = self.layout.rows(self.buffers.intensity);
-        let rows = rows.zip(self.layout.rows(j));
         // The gain is at most 2^18 and I at most 8160, J at most 8160: J 2^16 (< 2^29) minus
         // a I (< 2^31) is exact in 32 bits, and so is the bias, an average of such values;
         // their distance fits 32 bits unsigned, and a row of at most 63 of them 38 bits.
-        let (gain, bias) = (
-            gain as i32,
-            bias.clamp(i64::from(i32::MIN), i64::from(i32::MAX)),
+        let correction = Correction {
+            gain: gain as i32,
+            bias: bias.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+        };
+        let total = L::abs_residual(
+            frame,
+            origin,
+            &self.layout,
+            (source, j),
+            self.buffers.intensity,
+            correction,
         );
-        let bias = bias as i32;
-        for (i_row, j_row) in rows.take(self.layout.win) {
-            let row: u64 = i_row
-                .iter()
-                .zip(j_row)
-                .map(|(&i, &jv)| {
-                    let corrected = (i32::from(jv) << 16) - gain * i32::from(i);
-                    u64::from(corrected.abs_diff(bias))
-                })
-                .sum();
-            total += row;
-        }
         let total = total as i64;
         // Drop the 5 intensity bits: grey levels, Q16.
         let mean = total / (n << INTENSITY_BITS);
         mean.min(i32::MAX as i64) as i32
     }
+}
+
+/// The illumination correction of a residual, `J 2^16 - gain I - bias` (Q16 gain, bias in
+/// Q16 grey x 32).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Correction {
+    pub gain: i32,
+    pub bias: i32,
+}
+
+impl Correction {
+    /// `|J 2^16 - gain I - bias|` of one sample `j` against the template's `i`.
+    #[inline(always)]
+    pub(crate) fn distance(self, i: i16, j: i16) -> u32 {
+        let corrected = (i32::from(j) << 16) - self.gain * i32::from(i);
+        corrected.abs_diff(self.bias)
+    }
+}
+
+/// The sum of [`Correction::distance`] over a window's sampled values `j` and the template's
+/// intensities, laid out alike.
+pub(crate) fn abs_residual_of(layout: &Layout, intensity: &[i16], j: &[i16], c: Correction) -> u64 {
+    let rows = layout.rows(intensity).zip(layout.rows(j));
+    rows.take(layout.win)
+        .map(|(i_row, j_row)| -> u64 {
+            i_row
+                .iter()
+                .zip(j_row)
+                .map(|(&i, &jv)| u64::from(c.distance(i, jv)))
+                .sum()
+        })
+        .sum()
 }
 
 /// `λ_min(G) >= tau` without a square root: both diagonal entries reach `tau` and

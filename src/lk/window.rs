@@ -17,7 +17,7 @@
 //! dot products the DSP extension runs two products at a time).
 
 use super::correlation::Correlations;
-use super::template::TemplateSums;
+use super::template::{abs_residual_of, Correction, TemplateSums};
 use crate::frame::ImageView;
 
 /// Fractional bits of the bilinear weights.
@@ -96,6 +96,22 @@ pub(crate) trait Loops {
         source: &mut [i16],
         j: &mut [i16],
     );
+
+    /// The sum over the next window at `origin` of `|J 2^16 - gain I - bias|`
+    /// ([`Correction::distance`]) against the template's `intensity`. `source` holds what
+    /// [`Loops::correlate`] last left there, for a window at this integer position (loops may
+    /// read their gathered block from it); `j` is scratch for the samples.
+    fn abs_residual(
+        frame: &ImageView<'_>,
+        origin: &WindowOrigin,
+        layout: &Layout,
+        (source, j): (&mut [i16], &mut [i16]),
+        intensity: &[i16],
+        correction: Correction,
+    ) -> u64 {
+        Self::sample_window(frame, origin, layout, source, j);
+        abs_residual_of(layout, intensity, j, correction)
+    }
 }
 
 /// The buffers a template is derived into, laid out like [`TemplateBuffers`].

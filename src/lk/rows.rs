@@ -337,14 +337,19 @@ fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correla
 fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
     let (p, win) = (layout.pitch, layout.win);
     let square = block.get(..p * p).unwrap_or(&[]);
-    let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
-    let total: i32 = square.iter().map(|&v| i32::from(v)).sum();
+    // The block's total by pairs; its first and last columns by one load a row.
+    let sum_of = |values: &[i16]| -> i32 {
+        let (twos, tail) = pairs(values);
+        twos.fold(smlad(tail, ONES, 0), |sum, two| smlad(pair(two), ONES, sum))
+    };
+    let total = sum_of(square);
     let (mut left, mut right) = (0, 0);
     for row in square.chunks_exact(p) {
         left += row.first().map_or(0, |&v| i32::from(v));
         right += row.last().map_or(0, |&v| i32::from(v));
     }
-    let row_sum = |r: usize| -> i32 { (0..p).map(|c| at(r * p + c)).sum() };
+    let row_sum = |r: usize| sum_of(square.get(r * p..(r + 1) * p).unwrap_or(&[]));
+    let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
     let (top, bottom) = (row_sum(0), row_sum(win));
     let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
     [

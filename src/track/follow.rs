@@ -58,12 +58,12 @@ impl Follow<'_, '_> {
 
         let mut kept = 0;
         for i in 0..tracks.len() {
-            let (Some(&track), Some(&fwd), Some(&anchor)) =
+            let (Some(&track), Some(fwd), Some(anchor)) =
                 (tracks.get(i), forward.get(i), anchors.get(i))
             else {
                 break;
             };
-            match self.judge(&track, &anchor, &fwd, max_residual, scratch)? {
+            match self.judge(&track, anchor, fwd, max_residual, scratch)? {
                 Ok(position) => {
                     let step = fwd.step.position;
                     let moved = Track {
@@ -74,11 +74,15 @@ impl Follow<'_, '_> {
                         prediction_error: distance(step, fwd.guess.unwrap_or(track.position)),
                         ..track
                     };
-                    if let (Some(t), Some(a)) = (tracks.get_mut(kept), anchors.get_mut(kept)) {
+                    if let Some(t) = tracks.get_mut(kept) {
                         *t = moved;
-                        *a = anchor;
-                        kept = kept.saturating_add(1);
                     }
+                    // Anchors move down only once a track before them was dropped.
+                    // One move, in place (`kept < i < len`: in bounds).
+                    if kept != i {
+                        anchors.copy_within(i..=i, kept);
+                    }
+                    kept = kept.saturating_add(1);
                     report.tracked = report.tracked.saturating_add(1);
                 }
                 Err(Rejection::Lost) => report.dropped_lost = report.dropped_lost.saturating_add(1),

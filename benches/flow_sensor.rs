@@ -15,14 +15,9 @@
 //! image content moved from the first frame to the second), or `None` for no flow. Every
 //! estimator in `estimators()` runs on the same rendered frames.
 
-use host_sim::synth::{Flight, FlightPath, FlightSequence, SceneSpec};
+use host_sim::sensor::{centre_motion, kestrel_preset, px4flow_block_matching, Estimator};
+use host_sim::synth::{FlightPath, FlightSequence, SceneSpec};
 use host_sim::Frame;
-use kestrel::detect::Corner;
-use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
-use kestrel::lk::scratch_len;
-use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
-use kestrel::Point;
-use px4flow::{BlockMatcher, Config, Workspace};
 
 const WIDTH: usize = 160;
 const HEIGHT: usize = 120;
@@ -70,74 +65,12 @@ fn flights() -> Vec<FlightCase> {
     .collect()
 }
 
-/// An estimator: two frames in, a flow in px out, or `None` for no flow.
-type EstimatorFn = dyn FnMut(&Frame, &Frame) -> Option<(f32, f32)>;
-type Estimator = Box<EstimatorFn>;
-
 /// The estimators compared, by name. Add more here: each runs on every flight's frames.
 fn estimators() -> Vec<(&'static str, Estimator)> {
-    let matcher = BlockMatcher::new(Config::default()).expect("PX4FLOW's defaults are valid");
-    let mut workspace = Workspace::new();
-    let px4flow = move |prev: &Frame, next: &Frame| {
-        let (prev, next) = (prev.view().ok()?, next.view().ok()?);
-        let flow = matcher.flow(&prev, &next, &mut workspace).ok()?;
-        flow.is_valid().then_some((flow.x, flow.y))
-    };
     vec![
-        ("PX4FLOW (px4flow, ±4 px)", Box::new(px4flow)),
-        ("Kestrel flow-sensor preset", Box::new(kestrel_preset())),
+        ("PX4FLOW (px4flow, ±4 px)", px4flow_block_matching()),
+        ("Kestrel flow-sensor preset", kestrel_preset()),
     ]
-}
-
-/// `TrackerConfig::flow_sensor()` on one frame pair, started cold on the first frame (no
-/// motion known, so every track is searched on both levels and checked forward-backward), with
-/// the similarity the firmware's sensor fits; its flow is where the fit moves the principal
-/// point. `None` when the fit fails (quality 0).
-fn kestrel_preset() -> impl FnMut(&Frame, &Frame) -> Option<(f32, f32)> {
-    const TRACKS: usize = 25;
-    let config = TrackerConfig::flow_sensor();
-    let mut storage = vec![0u8; tracker_storage_len(WIDTH, HEIGHT, config.pyramid_levels())];
-    let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
-    let mut candidates = vec![Corner::default(); 3 * TRACKS];
-    let ransac = Ransac::new(RansacParams {
-        model: ModelKind::Similarity,
-        ..RansacParams::default()
-    })
-    .expect("the similarity fit's settings are valid");
-    move |prev: &Frame, next: &Frame| {
-        let (prev, next) = (prev.view().ok()?, next.view().ok()?);
-        let buffers = TrackerBuffers {
-            storage: &mut storage,
-            lk_scratch: &mut lk_scratch,
-            detect_scratch: &mut [],
-            candidates: &mut candidates,
-        };
-        let mut tracker = Tracker::<TRACKS>::new(config, WIDTH, HEIGHT, buffers).ok()?;
-        tracker.start(prev).ok()?;
-        let born: Vec<(u32, Point)> = tracker
-            .tracks()
-            .iter()
-            .map(|t| (t.id, t.position))
-            .collect();
-        tracker.process(prev, next, None).ok()?;
-        let pairs: Vec<(Point, Point)> = tracker
-            .tracks()
-            .iter()
-            .filter_map(|t| {
-                born.iter()
-                    .find(|(id, _)| *id == t.id)
-                    .map(|&(_, p)| (p, t.position))
-            })
-            .collect();
-        let mut inliers = vec![false; pairs.len()];
-        let motion = ransac.estimate(&pairs, &mut inliers).ok()?;
-        if motion.status != EgoStatus::Ok {
-            return None;
-        }
-        let centre = ((WIDTH as f32 - 1.0) / 2.0, (HEIGHT as f32 - 1.0) / 2.0);
-        let (x, y) = motion.model.apply(centre)?;
-        Some((x - centre.0, y - centre.1))
-    }
 }
 
 /// A flight's frames and the true centre displacement of each pair.
@@ -172,19 +105,6 @@ impl FlightFrames {
     }
 }
 
-/// Where the pair's homography (frame `from` to frame `to`) takes the principal point, less
-/// where it was.
-fn centre_motion(flight: &Flight, from: usize, to: usize) -> (f64, f64) {
-    let pair = flight
-        .homography(from)
-        .inverse()
-        .expect("a camera in front of the ground sees it through an invertible warp")
-        .then(&flight.homography(to));
-    let (cx, cy) = ((WIDTH as f64 - 1.0) / 2.0, (HEIGHT as f64 - 1.0) / 2.0);
-    let (x, y) = pair.apply(cx, cy);
-    (x - cx, y - cy)
-}
-
 /// One estimator's figures on one flight (or on several, merged).
 #[derive(Default)]
 struct Stats {
@@ -217,7 +137,7 @@ impl Stats {
 
 /// Runs `estimator` on every pair of `flight` and compares its flow with the true
 /// displacement of the image centre.
-fn centre_flow_errors(flight: &FlightFrames, estimator: &mut EstimatorFn) -> Stats {
+fn centre_flow_errors(flight: &FlightFrames, estimator: &mut Estimator) -> Stats {
     let mut errors: Vec<f64> = flight
         .pairs()
         .filter_map(|(prev, next, (tx, ty))| {
@@ -264,7 +184,7 @@ fn main() {
             .filter(|(x, y)| x.abs() > SEARCH_RADIUS || y.abs() > SEARCH_RADIUS)
             .count();
         for ((name, estimator), pooled) in estimators.iter_mut().zip(&mut all) {
-            let stats = centre_flow_errors(flight, estimator.as_mut());
+            let stats = centre_flow_errors(flight, estimator);
             pooled.merge(&stats);
             println!(
                 "| {} seed {} | {} | {} / {} | {:.0} % | {} | {} | {} | {:.0} % |",

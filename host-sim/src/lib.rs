@@ -8,6 +8,7 @@ pub mod egomotion;
 pub mod frame;
 pub mod io;
 pub mod reference;
+pub mod sensor;
 pub mod stabilize;
 pub mod synth;
 pub mod tracking;

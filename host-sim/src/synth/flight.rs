@@ -151,6 +151,16 @@ impl Flight {
         }
     }
 
+    /// The principal point, px: the frame centre.
+    ///
+    /// ```
+    /// use host_sim::synth::{Flight, FlightPath};
+    /// assert_eq!(Flight::new(FlightPath::Pan, 160, 120, 1).principal_point(), (79.5, 59.5));
+    /// ```
+    pub fn principal_point(&self) -> (f64, f64) {
+        (self.k[0][2], self.k[1][2])
+    }
+
     /// The path flown.
     pub fn path(&self) -> FlightPath {
         self.path

@@ -1,0 +1,109 @@
+//! Flow-sensor estimators on frame pairs, for comparing them on the same frames: the library's
+//! flow-sensor preset and PX4FLOW's block matching (the `px4flow` crate), and the truth they
+//! are measured against, the true displacement of the principal point.
+//!
+//! ```
+//! use host_sim::sensor::{kestrel_preset, px4flow_block_matching};
+//! use host_sim::synth::{FlightPath, FlightSequence, SceneSpec};
+//! let sequence = FlightSequence::new(SceneSpec::new(160, 120, 1), FlightPath::Pan, 0);
+//! let (a, b) = (sequence.frame(0), sequence.frame(1));
+//! let truth = host_sim::sensor::centre_motion(sequence.flight(), 0, 1);
+//! for mut estimate in [px4flow_block_matching(), kestrel_preset()] {
+//!     let (x, y) = estimate(&a, &b).unwrap();
+//!     assert!((f64::from(x) - truth.0).hypot(f64::from(y) - truth.1) < 0.3);
+//! }
+//! ```
+
+use kestrel::detect::Corner;
+use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
+use kestrel::lk::scratch_len;
+use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
+use kestrel::Point;
+use px4flow::{BlockMatcher, Config, Workspace};
+
+use crate::synth::Flight;
+use crate::Frame;
+
+/// An estimator: two frames in, the flow at the principal point in px out (x right, y down:
+/// how far the image content moved from the first frame to the second), or `None` for no flow
+/// (quality 0).
+pub type Estimator = Box<dyn FnMut(&Frame, &Frame) -> Option<(f32, f32)>>;
+
+/// PX4FLOW's block matching with its defaults (±4 px): the mean of its valid blocks' flow.
+pub fn px4flow_block_matching() -> Estimator {
+    let matcher = BlockMatcher::new(Config::default()).expect("PX4FLOW's defaults are valid");
+    let mut workspace = Workspace::new();
+    Box::new(move |prev: &Frame, next: &Frame| {
+        let (prev, next) = (prev.view().ok()?, next.view().ok()?);
+        let flow = matcher.flow(&prev, &next, &mut workspace).ok()?;
+        flow.is_valid().then_some((flow.x, flow.y))
+    })
+}
+
+/// `TrackerConfig::flow_sensor()` on one frame pair, started cold on the first frame (no motion
+/// known, so every track is searched on both levels and checked forward-backward), with the
+/// similarity fit the firmware's sensor uses; the flow is where the fit moves the principal
+/// point. `None` when the frames cannot be tracked or the fit fails.
+pub fn kestrel_preset() -> Estimator {
+    const TRACKS: usize = 25;
+    let config = TrackerConfig::flow_sensor();
+    let mut storage = Vec::new();
+    let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+    let mut candidates = vec![Corner::default(); 3 * TRACKS];
+    let ransac = Ransac::new(RansacParams {
+        model: ModelKind::Similarity,
+        ..RansacParams::default()
+    })
+    .expect("the similarity fit's settings are valid");
+    Box::new(move |prev: &Frame, next: &Frame| {
+        let (prev, next) = (prev.view().ok()?, next.view().ok()?);
+        let (width, height) = (prev.width(), prev.height());
+        storage.resize(
+            tracker_storage_len(width, height, config.pyramid_levels()),
+            0,
+        );
+        let buffers = TrackerBuffers {
+            storage: &mut storage,
+            lk_scratch: &mut lk_scratch,
+            detect_scratch: &mut [],
+            candidates: &mut candidates,
+        };
+        let mut tracker = Tracker::<TRACKS>::new(config, width, height, buffers).ok()?;
+        tracker.start(prev).ok()?;
+        let born: Vec<(u32, Point)> = tracker
+            .tracks()
+            .iter()
+            .map(|t| (t.id, t.position))
+            .collect();
+        tracker.process(prev, next, None).ok()?;
+        let pairs: Vec<(Point, Point)> = tracker
+            .tracks()
+            .iter()
+            .filter_map(|t| {
+                let (_, before) = born.iter().find(|(id, _)| *id == t.id)?;
+                Some((*before, t.position))
+            })
+            .collect();
+        let mut inliers = vec![false; pairs.len()];
+        let motion = ransac.estimate(&pairs, &mut inliers).ok()?;
+        if motion.status != EgoStatus::Ok {
+            return None;
+        }
+        let centre = ((width as f32 - 1.0) / 2.0, (height as f32 - 1.0) / 2.0);
+        let (x, y) = motion.model.apply(centre)?;
+        Some((x - centre.0, y - centre.1))
+    })
+}
+
+/// Where the flight's homography from frame `from` to frame `to` takes the principal point
+/// (the frame centre), less where it was: the flow a flow sensor should report.
+pub fn centre_motion(flight: &Flight, from: usize, to: usize) -> (f64, f64) {
+    let pair = flight
+        .homography(from)
+        .inverse()
+        .expect("a camera in front of the ground sees it through an invertible warp")
+        .then(&flight.homography(to));
+    let (cx, cy) = flight.principal_point();
+    let (x, y) = pair.apply(cx, cy);
+    (x - cx, y - cy)
+}

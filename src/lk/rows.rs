@@ -66,7 +66,8 @@ impl Loops for Rows {
             } else {
                 gather(frame, origin, side, side, source);
                 let px = source.get(..side * side).unwrap_or(&[]);
-                pixel_template(px, side, layout, intensity, dx, dy);
+                // Windows over the frame's edge are rare: they take the general rows.
+                any_pixel_template(px, side, layout, (intensity, dx, dy));
             }
         } else {
             match Source::of(frame, origin, side, source) {
@@ -452,8 +453,8 @@ fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i
 /// `stride` apart) under its patch: intensities are the pixels (grey x 32) and the Scharr sums
 /// of whole pixels are already at the gain of 32, equal to those of [`derivatives`] on the
 /// samples (which are the pixels times 32) without their rounding.
-fn pixel_template<P: Pixel>(
-    px: &[P],
+fn pixel_template(
+    px: &[u8],
     stride: usize,
     layout: &Layout,
     intensity: &mut [i16],
@@ -464,9 +465,9 @@ fn pixel_template<P: Pixel>(
     // The common window sizes get rows of a known length: unrolled, without bounds checks or
     // per-row set-up.
     match layout.win {
-        7 => fixed_pixel_template::<P, 7, 9>(px, stride, layout.pitch, out),
-        9 => fixed_pixel_template::<P, 9, 11>(px, stride, layout.pitch, out),
-        11 => fixed_pixel_template::<P, 11, 13>(px, stride, layout.pitch, out),
+        7 => fixed_pixel_template::<7, 9>(px, stride, layout.pitch, out),
+        9 => fixed_pixel_template::<9, 11>(px, stride, layout.pitch, out),
+        11 => fixed_pixel_template::<11, 13>(px, stride, layout.pitch, out),
         _ => any_pixel_template(px, stride, layout, out),
     }
 }
@@ -499,13 +500,13 @@ fn any_pixel_template<P: Pixel>(
 /// The template's rows, as [`pixel_template`], for a `W` x `W` window (`S = W + 2` pixels per
 /// patch row). Each row is unrolled; the rows are not, which keeps the code small.
 #[inline(never)]
-fn fixed_pixel_template<P: Pixel, const W: usize, const S: usize>(
-    px: &[P],
+fn fixed_pixel_template<const W: usize, const S: usize>(
+    px: &[u8],
     stride: usize,
     pitch: usize,
     (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
 ) {
-    let row = |r: usize| -> Option<&[P; S]> {
+    let row = |r: usize| -> Option<&[u8; S]> {
         let start = r * stride;
         px.get(start..start + S)?.try_into().ok()
     };

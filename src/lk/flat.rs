@@ -18,8 +18,8 @@
 use super::correlation::Correlations;
 use super::template::TemplateSums;
 use super::window::{
-    bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
-    WindowOrigin,
+    bilinear, gather, mask_outside, rescale, scharr_smooth, Layout, Loops, TemplateBuffers,
+    TemplateOut, WindowOrigin,
 };
 use crate::frame::ImageView;
 
@@ -187,7 +187,7 @@ fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
         .zip(ml.iter().zip(mr))
         .zip(dl.iter().zip(dr));
     for (gx, (((a, b), (c, d)), (e, f))) in dx.iter_mut().zip(horizontal) {
-        *gx = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
+        *gx = rescale(scharr_smooth(w(b) - w(a), w(d) - w(c), w(f) - w(e)));
     }
     let vertical = ul
         .iter()
@@ -195,7 +195,7 @@ fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
         .zip(uc.iter().zip(dc))
         .zip(ur.iter().zip(dr));
     for (gy, (((a, b), (c, d)), (e, f))) in dy.iter_mut().zip(vertical) {
-        *gy = rescale(3 * (w(b) - w(a)) + 10 * (w(d) - w(c)) + 3 * (w(f) - w(e)));
+        *gy = rescale(scharr_smooth(w(b) - w(a), w(d) - w(c), w(f) - w(e)));
     }
     clear_padding(layout, dx);
     clear_padding(layout, dy);

@@ -26,8 +26,8 @@
 use super::correlation::Correlations;
 use super::template::{Correction, TemplateSums};
 use super::window::{
-    bilinear, gather, mask_outside, rescale, Layout, Loops, TemplateBuffers, TemplateOut,
-    WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
+    bilinear, gather, mask_outside, rescale, scharr_smooth, Layout, Loops, TemplateBuffers,
+    TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
 use crate::dsp::smlad;
 use crate::frame::ImageView;
@@ -437,14 +437,14 @@ fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
 fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i16]) {
     let mut columns = up.iter().zip(mid).zip(down).map(|((&u, &m), &d)| {
         let [u, m, d] = [u, m, d].map(i32::from);
-        (3 * (u + d) + 10 * m, d - u)
+        (scharr_smooth(u, m, d), d - u)
     });
     let (Some((mut v0, mut h0)), Some((mut v1, mut h1))) = (columns.next(), columns.next()) else {
         return;
     };
     for ((gx, gy), (v2, h2)) in dx.iter_mut().zip(dy.iter_mut()).zip(columns) {
         *gx = rescale(v2 - v0);
-        *gy = rescale(3 * (h0 + h2) + 10 * h1);
+        *gy = rescale(scharr_smooth(h0, h1, h2));
         (v0, h0, v1, h1) = (v1, h1, v2, h2);
     }
 }
@@ -526,7 +526,7 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
         };
         let column = |k: usize| {
             let [u, m, d]: [i32; 3] = [up[k].into(), mid[k].into(), down[k].into()];
-            (3 * (u + d) + 10 * m, d - u)
+            (scharr_smooth(u, m, d), d - u)
         };
         let ((mut v0, mut h0), (mut v1, mut h1)) = (column(0), column(1));
         for k in 0..W {
@@ -534,7 +534,7 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
             let m: i32 = mid[k + 1].into();
             i_row[k] = (m << INTENSITY_BITS) as i16;
             dx_row[k] = (v2 - v0) as i16;
-            dy_row[k] = (3 * (h0 + h2) + 10 * h1) as i16;
+            dy_row[k] = scharr_smooth(h0, h1, h2) as i16;
             (v0, h0, v1, h1) = (v1, h1, v2, h2);
         }
     }
@@ -552,7 +552,7 @@ fn pixel_row<P: Pixel>(
 ) {
     let mut columns = up.iter().zip(mid).zip(down).map(|((&u, &m), &d)| {
         let [u, m, d]: [i32; 3] = [u.into(), m.into(), d.into()];
-        (3 * (u + d) + 10 * m, d - u, m)
+        (scharr_smooth(u, m, d), d - u, m)
     });
     let (Some((mut v0, mut h0, _)), Some((mut v1, mut h1, mut m1))) =
         (columns.next(), columns.next())
@@ -563,7 +563,7 @@ fn pixel_row<P: Pixel>(
     for ((i, (gx, gy)), (v2, h2, m2)) in outputs.zip(columns) {
         *i = (m1 << INTENSITY_BITS) as i16;
         *gx = (v2 - v0) as i16;
-        *gy = (3 * (h0 + h2) + 10 * h1) as i16;
+        *gy = scharr_smooth(h0, h1, h2) as i16;
         (v0, h0, v1, h1, m1) = (v1, h1, v2, h2, m2);
     }
 }

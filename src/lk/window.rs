@@ -189,6 +189,14 @@ pub(crate) fn bilinear([w00, w01, w10, w11]: [i32; 4], a: i32, b: i32, c: i32, d
     ((sum + round) >> (WEIGHT_BITS - INTENSITY_BITS)) as i16
 }
 
+/// Scharr's smoothing across a derivative, `3 a + 10 b + 3 c`: the kernel of every Scharr sum
+/// in both sets of window loops. A derivative is the smoothing of three differences across
+/// it, or (separably) the difference of two smoothings.
+#[inline(always)]
+pub(crate) fn scharr_smooth(a: i32, b: i32, c: i32) -> i32 {
+    3 * (a + c) + 10 * b
+}
+
 /// Drops the intensity bits of a Scharr sum of grey x 32 samples (`|s| <= 16 * 8160`), rounding:
 /// the result is at the Scharr gain of 32 per grey level (`<= 4080`).
 #[inline(always)]

@@ -286,12 +286,28 @@ pub(crate) fn reflect101(i: isize, n: usize) -> usize {
     i as usize
 }
 
+// The level filters: the box mean, and the Gaussian's two implementations, of which this
+// target runs one; both build on every target so that the tests compare them.
+mod box_mean;
+#[cfg_attr(
+    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
+    allow(dead_code)
+)]
+mod strips;
+#[cfg_attr(
+    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
+    allow(dead_code)
+)]
+mod words;
+
+use box_mean::BoxMean;
+
 /// How this target filters a level: vectorised strips where LLVM vectorises them, two pixels
 /// per 32-bit word on scalar cores. Both give the same pixels.
 #[cfg(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"))]
-type Native = Strips;
+type Native = strips::Strips;
 #[cfg(not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")))]
-type Native = Words;
+type Native = words::Words;
 
 /// One way to blur a level with the 5x5 binomial kernel and keep every second pixel into `dst`
 /// (`w` x `h`).
@@ -303,253 +319,6 @@ trait Downsample {
 fn source_rows<'a>(src: &ImageView<'a>, y: usize) -> [&'a [u8]; 5] {
     let sh = src.height();
     core::array::from_fn(|k| src.row(reflect101(2 * y as isize - 2 + k as isize, sh)))
-}
-
-/// Output columns filtered per pass; bounds the stack used for one vertically filtered strip.
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
-const STRIP: usize = 64;
-
-/// Separable in strips, for SIMD units: each strip of output columns first sums five source
-/// rows `[1 4 6 4 1]` into a small buffer, then filters that buffer horizontally at every second
-/// column.
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
-struct Strips;
-
-impl Downsample for Strips {
-    fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
-        for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
-            strips(&source_rows(src, y), 0..w, out_row);
-        }
-    }
-}
-
-/// Output columns `columns` of one row, strip by strip.
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
-fn strips(rows: &[&[u8]; 5], columns: core::ops::Range<usize>, out_row: &mut [u8]) {
-    // Vertical sums for the source columns of one strip: at most 16 * 255, fits u16.
-    let mut column_sums = [0u16; 2 * STRIP + 3];
-    let mut x0 = columns.start;
-    while x0 < columns.end {
-        let x1 = (x0 + STRIP).min(columns.end);
-        // Source columns 2*x0-2 ..= 2*(x1-1)+2.
-        let count = 2 * (x1 - x0) + 3;
-        vertical_sums(rows, 2 * x0 as isize - 2, &mut column_sums[..count]);
-        let outputs = out_row.get_mut(x0..x1).unwrap_or(&mut []);
-        horizontal_filter(&column_sums[..count], outputs);
-        x0 = x1;
-    }
-}
-/// `sums[i] = [1 4 6 4 1] . rows[..][first + i]`, with mirrored columns outside the rows.
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
-fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
-    let width = rows[0].len() as isize;
-    // Offsets into `sums` of the columns that lie inside the rows.
-    let lo = (-first).clamp(0, sums.len() as isize) as usize;
-    let hi = (width - first).clamp(lo as isize, sums.len() as isize) as usize;
-    for i in (0..lo).chain(hi..sums.len()) {
-        let x = reflect101(first + i as isize, width as usize);
-        let px = |k: usize| u16::from(rows[k].get(x).copied().unwrap_or(0));
-        if let Some(s) = sums.get_mut(i) {
-            *s = px(0) + 4 * px(1) + 6 * px(2) + 4 * px(3) + px(4);
-        }
-    }
-    // Interior: five equal-length runs, vectorised.
-    let start = (first + lo as isize).max(0) as usize;
-    let run = |k: usize| rows[k].get(start..start + hi - lo).unwrap_or(&[]);
-    let taps = run(0)
-        .iter()
-        .zip(run(1))
-        .zip(run(2).iter().zip(run(3)).zip(run(4)));
-    let interior = sums.get_mut(lo..hi).unwrap_or(&mut []);
-    for (s, ((&a, &b), ((&c, &d), &e))) in interior.iter_mut().zip(taps) {
-        let [a, b, c, d, e] = [a, b, c, d, e].map(u16::from);
-        *s = a + 4 * b + 6 * c + 4 * d + e;
-    }
-}
-
-/// `out[x] = [1 4 6 4 1] . sums[2x..2x+5] / 256`, rounded.
-///
-/// Each output shares three sums with the next; they are carried, so each output reads two.
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
-fn horizontal_filter(sums: &[u16], out: &mut [u8]) {
-    let (Some(&[a, b, c]), Some(rest)) = (sums.get(..3), sums.get(3..)) else {
-        return;
-    };
-    let (mut a, mut b, mut c) = (u32::from(a), u32::from(b), u32::from(c));
-    for (o, pair) in out.iter_mut().zip(rest.chunks_exact(2)) {
-        let &[d, e] = pair else {
-            continue;
-        };
-        let (d, e) = (u32::from(d), u32::from(e));
-        *o = ((a + 4 * (b + d) + 6 * c + e + 128) >> 8) as u8;
-        (a, b, c) = (c, d, e);
-    }
-}
-
-/// Two pixels per 32-bit word, for scalar cores.
-///
-/// A word of four source pixels splits into its even and odd columns, two 16-bit lanes each;
-/// the vertical `[1 4 6 4 1]` sums of both lanes take one addition each (a sum is at most
-/// `16 * 255`, so lanes never carry into each other). With `E` and `O` the even and odd
-/// columns' vertical sums, output `x` is `E[x-1] + 4 O[x-1] + 6 E[x] + 4 O[x] + E[x+1]`: two
-/// outputs per word, again one addition per term (at most `256 * 255 + 128 < 2^16`). Columns
-/// whose kernel reaches past the row's ends take the direct path with mirrored columns.
-#[cfg_attr(
-    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
-    allow(dead_code)
-)]
-struct Words;
-
-impl Downsample for Words {
-    fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
-        let sw = src.width();
-        // Output pairs (2k, 2k + 1) for k in 1..=pairs read source words k - 1 ..= k + 1.
-        let pairs = sw.saturating_sub(8) / 4;
-        let inner = 2..(2 + 2 * pairs).min(w);
-        for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
-            let rows = source_rows(src, y);
-            if let Some(out) = out_row.get_mut(inner.clone()) {
-                word_row(&rows, out);
-            }
-            let edges = (0..inner.start.min(w)).chain(inner.end.max(inner.start)..w);
-            for x in edges {
-                if let Some(o) = out_row.get_mut(x) {
-                    *o = mirrored_pixel(&rows, x, sw);
-                }
-            }
-        }
-    }
-}
-
-/// The even and odd columns' vertical sums of four source columns, two 16-bit lanes each.
-#[cfg_attr(
-    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
-    allow(dead_code)
-)]
-#[inline(always)]
-fn vertical_lanes(words: [u32; 5]) -> (u32, u32) {
-    const LANES: u32 = 0x00FF_00FF;
-    let even = words.map(|w| w & LANES);
-    let odd = words.map(|w| (w >> 8) & LANES);
-    let sum = |[a, b, c, d, e]: [u32; 5]| a + e + 4 * (b + d) + 6 * c;
-    (sum(even), sum(odd))
-}
-
-/// Output columns 2, 3, ... of one row, two per source word, from the row's second word on.
-#[cfg_attr(
-    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
-    allow(dead_code)
-)]
-#[inline(never)]
-fn word_row(rows: &[&[u8]; 5], out: &mut [u8]) {
-    let word = |c: &[u8]| c.try_into().map_or(0, u32::from_le_bytes);
-    let [r0, r1, r2, r3, r4] = rows.map(|r| r.chunks_exact(4));
-    let mut lanes = r0
-        .zip(r1)
-        .zip(r2)
-        .zip(r3.zip(r4))
-        .map(|(((a, b), c), (d, e))| vertical_lanes([a, b, c, d, e].map(word)));
-    let (Some((mut even, mut odd)), Some((mut next_even, mut next_odd))) =
-        (lanes.next(), lanes.next())
-    else {
-        return;
-    };
-    for (pair, (after_even, after_odd)) in out.chunks_exact_mut(2).zip(lanes) {
-        // The previous word's high lane beside this word's low lane, and so on.
-        let left = (even >> 16) | (next_even << 16);
-        let right = (next_even >> 16) | (after_even << 16);
-        let odd_left = (odd >> 16) | (next_odd << 16);
-        let sum = left + right + 6 * next_even + 4 * (odd_left + next_odd) + 0x0080_0080;
-        let pixels = ((sum >> 8) & 0xFF) | ((sum >> 16) & 0xFF00);
-        pair.copy_from_slice(&(pixels as u16).to_le_bytes());
-        (even, odd, next_even, next_odd) = (next_even, next_odd, after_even, after_odd);
-    }
-}
-
-/// [`PyramidFilter::Box`]: each output pixel is `avg(avg(a, c), avg(b, d))` of its 2 x 2
-/// block `[a b; c d]`, with `avg` the truncating halving add; four output pixels per pair of
-/// source words with [`crate::dsp::uhadd8`].
-struct BoxMean;
-
-impl Downsample for BoxMean {
-    fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
-        let (sw, sh) = (src.width(), src.height());
-        // Output columns 0..whole come from whole source words.
-        let whole = (sw / 8) * 4;
-        for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
-            let top = src.row(2 * y);
-            let bottom = src.row((2 * y + 1).min(sh - 1));
-            let (words, rest) = out_row.split_at_mut(whole.min(w));
-            box_words(top, bottom, words);
-            for (k, o) in rest.iter_mut().enumerate() {
-                let x = 2 * (whole + k);
-                let px =
-                    |row: &[u8], x: usize| u32::from(row.get(x.min(sw - 1)).copied().unwrap_or(0));
-                let (a, b) = (px(top, x), px(top, x + 1));
-                let (c, d) = (px(bottom, x), px(bottom, x + 1));
-                *o = (((a + c) / 2 + (b + d) / 2) / 2) as u8;
-            }
-        }
-    }
-}
-
-/// Four output pixels per two source words of each row: the vertical halving adds of the
-/// words, then the horizontal ones of their even and odd bytes.
-#[inline(never)]
-fn box_words(top: &[u8], bottom: &[u8], out: &mut [u8]) {
-    use crate::dsp::uhadd8;
-    const EVEN: u32 = 0x00FF_00FF;
-    let word = |c: &[u8]| c.try_into().map_or(0, u32::from_le_bytes);
-    let pairs = top.chunks_exact(8).zip(bottom.chunks_exact(8));
-    for (quad, (t, b)) in out.chunks_exact_mut(4).zip(pairs) {
-        let (t0, t1) = t.split_at(4);
-        let (b0, b1) = b.split_at(4);
-        let columns = |t: &[u8], b: &[u8]| {
-            let v = uhadd8(word(t), word(b));
-            // Lanes 0 and 2 hold the two outputs of these four columns.
-            uhadd8(v & EVEN, (v >> 8) & EVEN)
-        };
-        let (low, high) = (columns(t0, b0), columns(t1, b1));
-        let pixels = (low & 0xFF)
-            | ((low >> 8) & 0xFF00)
-            | ((high & 0xFF) << 16)
-            | ((high << 8) & 0xFF00_0000);
-        quad.copy_from_slice(&pixels.to_le_bytes());
-    }
-}
-
-/// One output pixel straight from the 5x5 kernel, with mirrored columns.
-#[cfg_attr(
-    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
-    allow(dead_code)
-)]
-fn mirrored_pixel(rows: &[&[u8]; 5], x: usize, width: usize) -> u8 {
-    const KERNEL: [u32; 5] = [1, 4, 6, 4, 1];
-    let mut sum = 128;
-    for (i, ki) in KERNEL.iter().enumerate() {
-        let sx = reflect101(2 * x as isize - 2 + i as isize, width);
-        let column = rows.iter().zip(KERNEL);
-        let column: u32 = column
-            .map(|(r, kj)| kj * u32::from(r.get(sx).copied().unwrap_or(0)))
-            .sum();
-        sum += ki * column;
-    }
-    (sum >> 8) as u8
 }
 
 #[cfg(test)]
@@ -615,8 +384,8 @@ mod tests {
                 let (lw, lh) = (level_size(w, 1), level_size(h, 1));
                 let mut strips = [0u8; 39 * 4];
                 let mut words = [0u8; 39 * 4];
-                Strips::downsample(&frame, &mut strips[..lw * lh], lw, lh);
-                Words::downsample(&frame, &mut words[..lw * lh], lw, lh);
+                strips::Strips::downsample(&frame, &mut strips[..lw * lh], lw, lh);
+                words::Words::downsample(&frame, &mut words[..lw * lh], lw, lh);
                 let level = |px| ImageView::packed(px, lw, lh).unwrap();
                 assert_direct_convolution(&frame, &level(&strips[..lw * lh]));
                 assert_direct_convolution(&frame, &level(&words[..lw * lh]));

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use kestrel::detect::grid::{Grid, MAX_CELLS_PER_SIDE};
 use kestrel::detect::Corner;
-use kestrel::lk::scratch_len;
+use kestrel::lk::{scratch_len, Illumination, LkParams, TemplatePlacement};
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,
     TrackerConfig, TrackerError,
@@ -19,6 +19,53 @@ pub const MAX_TRACKS: usize = 1000;
 /// Tracks allowed per grid cell; with about one cell per two tracks, a cell can take half again
 /// its share.
 const PER_CELL: u8 = 3;
+
+/// Settings given on the command line, each overriding the configuration it is applied to
+/// when present.
+///
+/// ```
+/// use host_sim::tracking::{Preset, TrackerSettings};
+/// let settings = TrackerSettings { window: Some(9), ..TrackerSettings::default() };
+/// let config = settings.apply(Preset::FlowSensor.config(None));
+/// assert_eq!((config.lk.window, config.lk.max_level), (9, 1));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrackerSettings {
+    /// LK window side.
+    pub window: Option<usize>,
+    /// Coarsest pyramid level LK searches.
+    pub levels: Option<usize>,
+    /// Brightness model.
+    pub illumination: Option<Illumination>,
+    /// Where LK's templates sit.
+    pub template: Option<TemplatePlacement>,
+    /// Forward-backward gate, px.
+    pub fb_threshold: Option<f32>,
+    /// Residual gate, grey levels.
+    pub max_residual: Option<f32>,
+    /// Appearance gate.
+    pub min_correlation: Option<f32>,
+}
+
+impl TrackerSettings {
+    /// `config` with every given setting in place of its own.
+    pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
+        let lk = LkParams {
+            window: self.window.unwrap_or(config.lk.window),
+            max_level: self.levels.unwrap_or(config.lk.max_level),
+            illumination: self.illumination.unwrap_or(config.lk.illumination),
+            template: self.template.unwrap_or(config.lk.template),
+            ..config.lk
+        };
+        TrackerConfig {
+            lk,
+            fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
+            max_residual: self.max_residual.unwrap_or(config.max_residual),
+            min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
+            ..config
+        }
+    }
+}
 
 /// A named tracker configuration of the library's.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -222,12 +222,97 @@ fn stats_report_the_library_time_per_frame() {
         json.starts_with("{\"frames\": 3, \"median_frame_seconds\": "),
         "{json}"
     );
-    let seconds: f64 = json
-        .split("\"mean_frame_seconds\": ")
-        .nth(1)
-        .and_then(|rest| rest.trim_end_matches(['}', '\n']).parse().ok())
-        .unwrap();
+    let field = |name: &str| -> f64 {
+        let rest = json.split(&format!("\"{name}\": ")).nth(1).unwrap();
+        rest.split([',', '}'])
+            .next()
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap()
+    };
+    let seconds = field("mean_frame_seconds");
     assert!(seconds > 0.0 && seconds < 10.0, "{json}");
+    // Every track lives in 1 to 3 of the 3 frames; the drops are counted by gate.
+    let life = field("mean_track_life");
+    assert!((1.0..=3.0).contains(&life), "{json}");
+    for reason in ["lost", "residual", "appearance", "forward_backward"] {
+        assert!(field(reason) >= 0.0, "{json}");
+    }
+}
+
+/// The preset and the LK and gate flags reach the tracker: the preset's 25 tracks cap the
+/// rows, a flag beside it overrides it, and a bad value is a usage error naming the flag.
+#[test]
+fn the_preset_and_the_tracker_flags_configure_the_run() {
+    let scratch = Scratch::new("track-preset");
+    let dir = scratch.path("frames");
+    write_folder(&dir, &frames(WIDTH, HEIGHT, 4));
+    let out = scratch.path("tracks.csv");
+    let output = host_sim(&[&"track", &dir, &"--out", &out, &"--preset", &"flow-sensor"]);
+    assert!(output.status.success(), "{output:?}");
+    let per_frame = check_rules(&rows(&out), 4);
+    assert!(
+        per_frame.iter().all(|&n| (1..=25).contains(&n)),
+        "{per_frame:?}"
+    );
+    let wider = host_sim(&[
+        &"track",
+        &dir,
+        &"--out",
+        &out,
+        &"--preset",
+        &"flow-sensor",
+        &"--max-tracks",
+        &"40",
+    ]);
+    assert!(wider.status.success(), "{wider:?}");
+    assert!(check_rules(&rows(&out), 4).iter().any(|&n| n > 25));
+    let firmware = host_sim(&[
+        &"track",
+        &dir,
+        &"--out",
+        &out,
+        &"--window",
+        &"9",
+        &"--levels",
+        &"2",
+        &"--template",
+        &"nearest-pixel",
+        &"--illumination",
+        &"plain",
+        &"--fb-threshold",
+        &"0.5",
+    ]);
+    assert!(firmware.status.success(), "{firmware:?}");
+    for (flag, value, says) in [
+        (
+            "--window",
+            "8",
+            "--window: must be an odd number from 3 to 63 (got 8)",
+        ),
+        ("--levels", "9", "--levels: must be between 0 and 7 (got 9)"),
+        (
+            "--illumination",
+            "auto",
+            "--illumination: must be plain or gain-bias (got auto)",
+        ),
+        (
+            "--min-correlation",
+            "2",
+            "--min-correlation: must be between -1 and 1 (got 2)",
+        ),
+        (
+            "--preset",
+            "fast",
+            "--preset: must be flow-sensor (got fast)",
+        ),
+    ] {
+        let output = host_sim(&[&"track", &dir, &"--out", &out, &flag, &value]);
+        assert_eq!(output.status.code(), Some(2), "{flag}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains(says), "{flag}: {stderr}");
+    }
 }
 
 #[test]

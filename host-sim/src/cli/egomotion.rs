@@ -2,6 +2,8 @@
 
 use std::ffi::OsString;
 
+use kestrel::lk::LkParams;
+
 use kestrel::ego::camera::FOCAL_RANGE;
 use kestrel::ego::ModelKind;
 
@@ -37,6 +39,9 @@ Options:
                     back as raw bytes; system 1, component 100, sequence from 0
   --fps F           frame rate, 1 to 10000 [default: the y4m header's, else 30]
   --max-points N    points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]
+  --window N        LK window side, odd, 3 to 63 [default: 21; 7 with --preset flow-sensor]
+  --levels L        coarsest pyramid level LK searches, 0 to 7 [default: 3; 1 with the preset]
+  --illumination M  plain or gain-bias [default: gain-bias]
   --preset NAME     flow-sensor: the LK settings and pyramid of the library's
                     TrackerConfig::flow_sensor() (7x7 windows on two levels of a box-mean
                     pyramid, nearest-pixel templates, 10 iterations) and its 25 points;
@@ -76,6 +81,9 @@ const FLAGS: &[Flag] = &[
     Flag::value("--fps"),
     Flag::value("--max-points"),
     Flag::value("--preset"),
+    Flag::value("--window"),
+    Flag::value("--levels"),
+    Flag::value("--illumination"),
     Flag::value("--threshold"),
     Flag::value("--stats"),
 ];
@@ -125,6 +133,13 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
             settings.max_points = config.max_tracks;
         }
     }
+    let lk = super::track::settings(matches)?;
+    settings.lk = LkParams {
+        window: lk.window.unwrap_or(settings.lk.window),
+        max_level: lk.levels.unwrap_or(settings.lk.max_level),
+        illumination: lk.illumination.unwrap_or(settings.lk.illumination),
+        ..settings.lk
+    };
     Ok(EgomotionOptions {
         input,
         out,
@@ -235,6 +250,14 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!(wider.settings.max_points, 60);
+        let narrower = parsed("- --out e.csv --preset flow-sensor --window 9 --levels 2")
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            (narrower.settings.lk.window, narrower.settings.lk.max_level),
+            (9, 2)
+        );
+        assert_eq!(narrower.settings.lk.template, sensor.lk.template);
         assert!(options.gyro.is_some() && options.mavlink.is_some() && options.stats.is_some());
     }
 

@@ -4,8 +4,9 @@ use std::ffi::OsString;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
 use crate::commands::track::TrackOptions;
-use crate::tracking::Preset;
 use crate::tracking::MAX_TRACKS;
+use crate::tracking::{Preset, TrackerSettings};
+use kestrel::lk::{Illumination, TemplatePlacement};
 
 /// The usage text of `host-sim track --help`.
 pub const USAGE: &str = "\
@@ -26,10 +27,25 @@ Options:
                     windows on two levels of a box-mean pyramid, FAST corners), the settings
                     a flight controller runs at 400 Hz; flags given beside it override it
                     [default: none, the tracker's defaults]
+  --window N        LK window side, odd, 3 to 63 [default: 21; 7 with --preset flow-sensor]
+  --levels L        coarsest pyramid level LK searches, 0 to 7 [default: 3; 1 with the preset]
+  --illumination M  plain, or gain-bias: a brightness gain and bias fitted between frames
+                    [default: gain-bias]
+  --template P      at-point (interpolated at each track, OpenCV's) or nearest-pixel (on the
+                    pixel nearest it, cheaper: the firmware's) [default: at-point;
+                    nearest-pixel with the preset]
+  --fb-threshold PX forward-backward gate, px, >= 0 [default: 1]
+  --max-residual G  residual gate, grey levels, >= 0 [default: 12]
+  --min-correlation C
+                    appearance gate: least correlation with the track's birth patch, -1 to 1
+                    (-1 turns it off) [default: 0.8]
   --viz DIR         one PNG per frame (000000.png, ...) with each track's trail over its last
                     10 frames, coloured by id; DIR is created if missing
-  --stats S.json    write {\"frames\": n, \"median_frame_seconds\": t, \"mean_frame_seconds\": t}:
-                    the library's time per frame, decoding and writing excluded
+  --stats S.json    write {\"frames\", \"median_frame_seconds\", \"mean_frame_seconds\",
+                    \"mean_track_life\", \"drops\": {reason: count}}: the library's time per
+                    frame (decoding and writing excluded), the frames a track is live in on
+                    average, and the tracks dropped by each gate (lost, residual, appearance,
+                    forward_backward)
   -h, --help        print this help
 
 tracks.csv columns:
@@ -39,6 +55,9 @@ tracks.csv columns:
   x,y       position in px, from the centre of the top-left pixel, x right, y down
   age       frames the track has been followed since it was detected
   residual  mean absolute intensity residual of its last step, grey levels
+
+The firmware's configuration (firmware/src/pipeline.rs) is --window 9 --levels 2 --template
+nearest-pixel; the flow sensor's is --preset flow-sensor.
 
 A bad frame ends the run with an error naming it; tracks.csv then holds every frame before it.
 
@@ -50,6 +69,13 @@ const FLAGS: &[Flag] = &[
     Flag::value("--out"),
     Flag::value("--max-tracks"),
     Flag::value("--preset"),
+    Flag::value("--window"),
+    Flag::value("--levels"),
+    Flag::value("--illumination"),
+    Flag::value("--template"),
+    Flag::value("--fb-threshold"),
+    Flag::value("--max-residual"),
+    Flag::value("--min-correlation"),
     Flag::value("--viz"),
     Flag::value("--stats"),
 ];
@@ -83,8 +109,81 @@ fn options(matches: &Matches) -> Result<TrackOptions, UsageError> {
             None => None,
         },
         preset: preset(matches)?,
+        settings: settings(matches)?,
         viz: matches.path("--viz"),
         stats: matches.path("--stats"),
+    })
+}
+
+const WINDOW: Rule<i64> = Rule {
+    accepts: |n| (3..=63).contains(&n) && n % 2 == 1,
+    says: "must be an odd number from 3 to 63",
+};
+const LEVELS: Rule<i64> = Rule {
+    accepts: |n| (0..=7).contains(&n),
+    says: "must be between 0 and 7",
+};
+const NON_NEGATIVE: Rule<f64> = Rule {
+    accepts: |v| v >= 0.0,
+    says: "must be a number >= 0",
+};
+const CORRELATION: Rule<f64> = Rule {
+    accepts: |v| (-1.0..=1.0).contains(&v),
+    says: "must be between -1 and 1",
+};
+
+/// The LK and gate flags shared by `track` and `egomotion`: each set one overrides the
+/// configuration it is applied to.
+pub fn settings(matches: &Matches) -> Result<TrackerSettings, UsageError> {
+    let given = |flag| matches.value(flag).is_some();
+    let integer = |flag, rule| -> Result<Option<usize>, UsageError> {
+        // Range-checked by the rule, so the conversion cannot truncate.
+        Ok(if given(flag) {
+            Some(matches.integer(flag, 0, rule)? as usize)
+        } else {
+            None
+        })
+    };
+    let number = |flag, rule| -> Result<Option<f32>, UsageError> {
+        Ok(if given(flag) {
+            Some(matches.number(flag, 0.0, rule)? as f32)
+        } else {
+            None
+        })
+    };
+    let illumination = match matches.value("--illumination") {
+        None => None,
+        Some(v) if v == "plain" => Some(Illumination::Plain),
+        Some(v) if v == "gain-bias" => Some(Illumination::GainBias),
+        Some(v) => {
+            return Err(UsageError::new(
+                "--illumination",
+                format!("must be plain or gain-bias (got {})", v.to_string_lossy()),
+            ))
+        }
+    };
+    let template = match matches.value("--template") {
+        None => None,
+        Some(v) if v == "at-point" => Some(TemplatePlacement::AtPoint),
+        Some(v) if v == "nearest-pixel" => Some(TemplatePlacement::NearestPixel),
+        Some(v) => {
+            return Err(UsageError::new(
+                "--template",
+                format!(
+                    "must be at-point or nearest-pixel (got {})",
+                    v.to_string_lossy()
+                ),
+            ))
+        }
+    };
+    Ok(TrackerSettings {
+        template,
+        window: integer("--window", WINDOW)?,
+        levels: integer("--levels", LEVELS)?,
+        illumination,
+        fb_threshold: number("--fb-threshold", NON_NEGATIVE)?,
+        max_residual: number("--max-residual", NON_NEGATIVE)?,
+        min_correlation: number("--min-correlation", CORRELATION)?,
     })
 }
 

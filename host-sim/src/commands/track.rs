@@ -12,15 +12,18 @@ use crate::io::json::JsonObject;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
-use crate::tracking::{config_for, track_sequence, Preset, TrackedFrame, TrackingFailure};
+use crate::tracking::{
+    config_for, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
+};
 use crate::viz::Trails;
+use std::collections::HashMap;
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
 /// residual in grey levels.
 pub const COLUMNS: [&str; 6] = ["frame", "id", "x", "y", "age", "residual"];
 
 /// Everything `track` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrackOptions {
     /// The sequence: a directory, a y4m file, or `-` for y4m on standard input.
     pub input: OsString,
@@ -30,6 +33,8 @@ pub struct TrackOptions {
     pub max_tracks: Option<usize>,
     /// The configuration the tracker starts from, when not its defaults.
     pub preset: Option<Preset>,
+    /// Settings given beside it, which override it.
+    pub settings: TrackerSettings,
     /// Where the trail pictures go, if anywhere.
     pub viz: Option<PathBuf>,
     /// Where to write the timing summary, if anywhere.
@@ -66,10 +71,14 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let mut seconds = Vec::new();
 
     let frames = source.map(|frame| frame.map_err(CommandError::from));
-    let configure = |width, height| match options.preset {
-        Some(preset) => preset.config(options.max_tracks),
-        None => config_for(width, height, options.max_tracks.unwrap_or(100)),
+    let configure = |width, height| {
+        let base = match options.preset {
+            Some(preset) => preset.config(options.max_tracks),
+            None => config_for(width, height, options.max_tracks.unwrap_or(100)),
+        };
+        options.settings.apply(base)
     };
+    let mut lives = TrackLives::default();
     let outcome = track_sequence(frames, configure, |tracked| {
         // The picture first: a frame's rows are only written once all its outputs are.
         if let Some(dir) = &options.viz {
@@ -83,6 +92,7 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
         })?;
         frames_done = tracked.index + 1;
         seconds.push(tracked.seconds);
+        lives.add(tracked);
         progress.update(frames_done);
         Ok(())
     });
@@ -90,20 +100,65 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     if frames_done > 0 && !csv_failed {
         csv.into_inner().commit()?;
         if let Some(stats) = stats {
-            write_stats(stats, &mut seconds)?;
+            write_stats(stats, &mut seconds, &lives)?;
         }
     }
     outcome.map(|_| ())
 }
 
-/// `{"frames": n, "median_frame_seconds": t, "mean_frame_seconds": t}`: the library's time per
-/// frame (pyramid, tracking, gates, detection), decoding and writing excluded.
-fn write_stats(mut file: AtomicFile, seconds: &mut [f64]) -> Result<(), CommandError> {
+/// How long tracks lived and why they ended, over a run.
+#[derive(Debug, Default)]
+struct TrackLives {
+    /// Frames each track was live in, by id (its first frame included).
+    frames: HashMap<u32, u64>,
+    /// Tracks dropped by each gate: lost, residual, appearance, forward-backward.
+    drops: [u64; 4],
+}
+
+impl TrackLives {
+    fn add(&mut self, tracked: &TrackedFrame<'_>) {
+        for track in tracked.tracks {
+            *self.frames.entry(track.id).or_insert(0) += 1;
+        }
+        let r = &tracked.report;
+        let dropped = [
+            r.dropped_lost,
+            r.dropped_residual,
+            r.dropped_appearance,
+            r.dropped_fb,
+        ];
+        for (total, n) in self.drops.iter_mut().zip(dropped) {
+            *total += n as u64;
+        }
+    }
+
+    /// The mean of the frames each track was live in, tracks still live at the end counted to
+    /// the last frame.
+    fn mean(&self) -> f64 {
+        self.frames.values().sum::<u64>() as f64 / self.frames.len().max(1) as f64
+    }
+}
+
+/// `{"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life", "drops"}`: the
+/// library's time per frame (pyramid, tracking, gates, detection), decoding and writing
+/// excluded, the frames a track lived in on average, and the tracks each gate dropped.
+fn write_stats(
+    mut file: AtomicFile,
+    seconds: &mut [f64],
+    lives: &TrackLives,
+) -> Result<(), CommandError> {
     let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
+    let reasons = ["lost", "residual", "appearance", "forward_backward"];
+    let drops = reasons
+        .iter()
+        .zip(lives.drops)
+        .fold(JsonObject::new(), |o, (reason, n)| o.integer(reason, n));
     let summary = JsonObject::new()
         .integer("frames", seconds.len() as u64)
         .number("median_frame_seconds", median(seconds))
         .number("mean_frame_seconds", mean)
+        .number("mean_track_life", lives.mean())
+        .object("drops", drops)
         .finish();
     file.write_all(summary.as_bytes())
         .map_err(|e| file.write_error(&e))?;

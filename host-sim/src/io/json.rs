@@ -41,6 +41,18 @@ impl JsonObject {
         self.member(key, &quote(value))
     }
 
+    /// Adds an object member.
+    ///
+    /// ```
+    /// use host_sim::io::json::JsonObject;
+    /// let inner = JsonObject::new().integer("lost", 2);
+    /// assert_eq!(JsonObject::new().object("drops", inner).finish(), "{\"drops\": {\"lost\": 2}}\n");
+    /// ```
+    pub fn object(self, key: &str, value: JsonObject) -> Self {
+        let inner = format!("{{{}}}", value.body);
+        self.member(key, &inner)
+    }
+
     /// The object's text, with a final newline.
     pub fn finish(self) -> String {
         format!("{{{}}}\n", self.body)

@@ -7,6 +7,7 @@ use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
 use kestrel::dense::regions::MotionBox;
 use kestrel::dense::DenseError;
+use kestrel::ego::{EgoMotion, EgoStatus};
 use kestrel::lk::LkParams;
 use kestrel::pyramid::Pyramid;
 use kestrel::Point;
@@ -77,20 +78,26 @@ impl Dense {
         })
     }
 
-    /// Tracks every node from `prev` to `next` and fills the invalid ones.
+    /// Tracks every node from `prev` to `next` and fills the invalid ones. With the camera's
+    /// motion fitted to the tracks (`camera`, when the fit succeeded), each node's search
+    /// starts where it predicts, on the finest level; nodes that move otherwise are searched
+    /// on the whole pyramid.
     pub fn grid(
         &mut self,
         prev: &Pyramid<'_>,
         next: &Pyramid<'_>,
+        camera: &EgoMotion,
     ) -> Result<DenseSummary, DenseError> {
         self.found = 0;
         let buffers = &mut self.buffers;
-        self.flow.compute(
-            prev,
-            next,
-            &mut buffers.nodes[..],
-            &mut buffers.lk_scratch[..],
-        )
+        let (nodes, scratch) = (&mut buffers.nodes[..], &mut buffers.lk_scratch[..]);
+        if camera.status != EgoStatus::Ok {
+            return self.flow.compute(prev, next, nodes, scratch);
+        }
+        let model = camera.model;
+        let predict = move |p: Point| model.apply_point(p).unwrap_or(p);
+        self.flow
+            .compute_predicted(prev, next, nodes, scratch, &predict)
     }
 
     /// Fits the camera's motion to the grid, marks what moves otherwise, and boxes it.

@@ -195,7 +195,7 @@ impl Pipeline {
             .map_err(FrameError::Track)?;
         let dense = &mut self.dense;
         let grid = times
-            .run(meter, Stage::Dense, || dense.grid(&prev, &next))
+            .run(meter, Stage::Dense, || dense.grid(&prev, &next, &motion))
             .map_err(FrameError::Dense)?;
         let moving = times
             .run(meter, Stage::Boxes, || dense.boxes(&grid.layout))

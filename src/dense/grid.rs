@@ -433,6 +433,8 @@ pub struct DenseSummary {
 pub struct DenseFlow {
     params: DenseParams,
     lk: LucasKanade,
+    /// The same on the finest level only, for searches from a prediction.
+    fine: LucasKanade,
 }
 
 impl DenseFlow {
@@ -455,7 +457,8 @@ impl DenseFlow {
             return Err(DenseError::BadThreshold);
         }
         let lk = LucasKanade::new(params.lk).map_err(DenseError::Lk)?;
-        Ok(Self { params, lk })
+        let fine = lk.with_max_level(0);
+        Ok(Self { params, lk, fine })
     }
 
     /// The parameters this configuration was built with.
@@ -490,11 +493,81 @@ impl DenseFlow {
         nodes: &mut [GridNode],
         scratch: &mut [i16],
     ) -> Result<DenseSummary, DenseError> {
+        self.compute_with(prev, next, nodes, scratch, None)
+    }
+
+    /// [`DenseFlow::compute`] with each node's search started where `predict` takes its centre
+    /// (the camera's motion, from a tracker's ego-motion or a gyro), on the finest level only.
+    /// Most of a frame moves with the camera, and a search that starts within a pixel of the
+    /// answer needs no coarse level; a node whose fine search fails, or lands more than
+    /// [`DenseFlow::FINE_REACH`] px from the prediction (it moves on its own, or the
+    /// prediction is off), is searched again as [`DenseFlow::compute`] would, on the whole
+    /// pyramid from its centre.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode};
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::lk::scratch_len;
+    /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+    /// use kestrel::Point;
+    /// const W: usize = 48;
+    /// const H: usize = 40;
+    /// let scene = |dx: f32| -> [u8; W * H] {
+    ///     core::array::from_fn(|i| {
+    ///         let (x, y) = ((i % W) as f32 - dx, (i / W) as f32);
+    ///         (128.0 + 60.0 * (0.5 * x).sin() * (0.4 * y).cos() + 30.0 * (0.23 * (x + y)).sin()) as u8
+    ///     })
+    /// };
+    /// let (a, b) = (scene(0.0), scene(2.5));
+    /// let (mut sa, mut sb) = ([0u8; pyramid_storage_len(W, H, 2)], [0u8; pyramid_storage_len(W, H, 2)]);
+    /// let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 2, &mut sa).unwrap();
+    /// let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 2, &mut sb).unwrap();
+    /// let dense = DenseFlow::new(DenseParams { cell: 8, fill_passes: 0, ..DenseParams::default() }).unwrap();
+    /// let mut nodes = [GridNode::default(); grid_len(W, H, 8)];
+    /// let mut scratch = [0i16; scratch_len(9)];
+    /// // The camera moved 2.4 px right: the prediction is a tenth of a pixel off.
+    /// let camera = |p: Point| Point::from_f32(p.to_f32().0 + 2.4, p.to_f32().1);
+    /// dense.compute_predicted(&prev, &next, &mut nodes, &mut scratch, &camera).unwrap();
+    /// // The same flow as the search on the whole pyramid, at a fraction of its cost.
+    /// let mut whole = nodes;
+    /// dense.compute(&prev, &next, &mut whole, &mut scratch).unwrap();
+    /// for (n, w) in nodes.iter().zip(&whole) {
+    ///     assert_eq!(n.status, w.status);
+    ///     let (dx, dy) = (n.flow.x - w.flow.x, n.flow.y - w.flow.y);
+    ///     assert!(dx.abs().to_num::<f32>() < 0.02 && dy.abs().to_num::<f32>() < 0.02);
+    /// }
+    /// ```
+    pub fn compute_predicted(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        nodes: &mut [GridNode],
+        scratch: &mut [i16],
+        predict: &dyn Fn(Point) -> Point,
+    ) -> Result<DenseSummary, DenseError> {
+        self.compute_with(prev, next, nodes, scratch, Some(predict))
+    }
+
+    /// How far from its prediction, px, a node's search on the finest level may land before it
+    /// is searched again on the whole pyramid ([`DenseFlow::compute_predicted`]): about what LK
+    /// on one level of a 9 x 9 window can follow.
+    pub const FINE_REACH: f32 = 2.0;
+
+    /// The nodes, searched from `predict` when given.
+    fn compute_with(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        nodes: &mut [GridNode],
+        scratch: &mut [i16],
+        predict: Option<&dyn Fn(Point) -> Point>,
+    ) -> Result<DenseSummary, DenseError> {
         let layout = self.check(prev, next, nodes.len(), scratch.len())?;
         let mut tracked = 0usize;
         for (index, node) in nodes.iter_mut().take(layout.len()).enumerate() {
             let (col, row) = layout.node(index);
-            *node = self.track_node(prev, next, layout.centre(col, row), scratch)?;
+            let centre = layout.centre(col, row);
+            *node = self.track_node(prev, next, centre, predict, scratch)?;
             tracked = tracked.saturating_add(usize::from(node.is_valid()));
         }
         let filled = fill_invalid(&layout, nodes, self.params.fill_passes);
@@ -543,15 +616,34 @@ impl DenseFlow {
         prev: &Pyramid<'_>,
         next: &Pyramid<'_>,
         (x, y): (usize, usize),
+        predict: Option<&dyn Fn(Point) -> Point>,
         scratch: &mut [i16],
     ) -> Result<GridNode, DenseError> {
         // Centres are below MAX_DIMENSION = 4096, so the Q16 conversion is exact.
         let q16 = |v: usize| i32::try_from(v).map_or(i32::MAX, |v| v.saturating_mul(1 << 16));
         let start = Point::from_bits(q16(x), q16(y));
-        let track = self
-            .lk
-            .track_point(prev, next, start, None, scratch)
-            .map_err(DenseError::Lk)?;
+        let fine = match predict {
+            Some(predict) => {
+                let guess = predict(start);
+                let step = self
+                    .fine
+                    .track_point(prev, next, start, Some(guess), scratch)
+                    .map_err(DenseError::Lk)?;
+                let (px, py) = step.position.to_f32();
+                let (gx, gy) = guess.to_f32();
+                let near =
+                    (px - gx).abs() <= Self::FINE_REACH && (py - gy).abs() <= Self::FINE_REACH;
+                (step.is_tracked() && near).then_some(step)
+            }
+            None => None,
+        };
+        let track = match fine {
+            Some(step) => step,
+            None => self
+                .lk
+                .track_point(prev, next, start, None, scratch)
+                .map_err(DenseError::Lk)?,
+        };
         Ok(match track.status {
             TrackStatus::Tracked if track.residual.to_num::<f32>() > self.params.max_residual => {
                 GridNode::invalid(NodeStatus::Residual)

@@ -4,12 +4,16 @@
 //! Every frame, [`Tracker::process`]
 //! 1. builds the new frame's pyramid next to the previous one (the previous frame's pixels are
 //!    the caller's buffer, passed again: nothing is copied);
-//! 2. follows every live track with LK, from a caller's prediction when there is one (a gyro);
+//! 2. follows every live track with LK from where it should be: the caller's prediction when
+//!    there is one (a gyro), else its own last displacement repeated (new tracks: the median
+//!    of the others'), on the finest pyramid level its last prediction error calls for
+//!    ([`TrackerConfig::fine_search`]), again on the whole pyramid when that search fails;
 //! 3. drops a track that LK lost, whose residual stands out (above
 //!    [`TrackerConfig::max_residual`], or [`TrackerConfig::residual_ratio`] times the frame's
 //!    median), that no longer looks like the feature it was born on
 //!    ([`TrackerConfig::min_correlation`]), or whose way back misses its start by more than
-//!    [`TrackerConfig::fb_threshold`]: the cheap gates first, the backward LK last;
+//!    [`TrackerConfig::fb_threshold`]: the cheap gates first, the backward LK last, run on
+//!    every track once in [`TrackerConfig::fb_every`] frames and on every doubtful step;
 //!    every [`TrackerConfig::relocate_every`] frames, a track that is old enough is first moved
 //!    to where its birth appearance matches best nearby, undoing LK's slow drift, or dropped
 //!    when that is farther than [`TrackerConfig::max_relocation`];
@@ -19,7 +23,7 @@
 //!    [`TrackerConfig::max_tracks`] where LK accepts the window.
 //!
 //! Memory: the caller's [`TrackerBuffers`] (two pyramids, scratch, candidates), and inside the
-//! tracker 24 bytes per track plus 49 for its birth appearance (7.3 KB for 100 tracks).
+//! tracker 36 bytes per track plus 49 for its birth appearance (8.5 KB for 100 tracks).
 //!
 //! ```
 //! use kestrel::detect::Corner;
@@ -282,7 +286,7 @@ struct Previous {
 pub enum TrackerStage {
     /// The new frame's pyramid is built (after the frame checks).
     Pyramid,
-    /// Every live track was followed forward and back, and the gates applied.
+    /// Every live track was followed (and checked back where due), and the gates applied.
     Follow,
     /// New corners were detected and new tracks started; only in frames that refill.
     Refill,

@@ -147,35 +147,11 @@ impl Default for TrackerConfig {
     /// nearly flat window it follows the noise and slides by several pixels in a hundred
     /// frames without any gate noticing.
     fn default() -> Self {
-        Self {
-            lk: LkParams {
-                min_eigen_threshold: 2e-3,
-                ..LkParams::default()
-            },
-            max_tracks: 100,
-            refill_below: 80,
-            detector: Detector::default(),
-            detect_level: 1,
-            grid: Grid {
-                cols: 8,
-                rows: 6,
-                per_cell: 3,
-            },
-            border: 8,
-            min_distance: 5,
-            fb_threshold: 1.0,
-            max_residual: 12.0,
-            residual_ratio: 3.0,
-            min_correlation: 0.8,
-            relocate_every: 16,
-            relocate_from_age: 32,
-            max_relocation: 0.75,
-            constant_velocity: true,
-            fine_search: 1.0,
-            fb_every: 8,
-            fb_doubt: 0.25,
-            pyramid: PyramidFilter::Gaussian,
-        }
+        let lk = LkParams {
+            min_eigen_threshold: 2e-3,
+            ..LkParams::default()
+        };
+        TrackerConfig::with(lk, Detector::default())
     }
 }
 
@@ -197,27 +173,45 @@ impl TrackerConfig {
     /// assert_eq!((SENSOR.max_tracks, SENSOR.lk.window, SENSOR.pyramid_levels()), (25, 7, 1));
     /// ```
     pub const fn flow_sensor() -> Self {
+        let lk = LkParams {
+            window: 7,
+            max_level: 1,
+            max_iterations: 10,
+            epsilon: 0.01,
+            min_eigen_threshold: 2e-3,
+            illumination: Illumination::GainBias,
+            template: TemplatePlacement::NearestPixel,
+        };
+        let detector = Detector::Fast(Fast {
+            threshold: 10,
+            nonmax: true,
+        });
         Self {
-            lk: LkParams {
-                window: 7,
-                max_level: 1,
-                max_iterations: 10,
-                epsilon: 0.01,
-                min_eigen_threshold: 2e-3,
-                illumination: Illumination::GainBias,
-                template: TemplatePlacement::NearestPixel,
-            },
             max_tracks: 25,
             refill_below: 20,
-            detector: Detector::Fast(Fast {
-                threshold: 10,
-                nonmax: true,
-            }),
-            detect_level: 1,
             grid: Grid {
                 cols: 5,
                 rows: 5,
                 per_cell: 1,
+            },
+            pyramid: PyramidFilter::Box,
+            ..Self::with(lk, detector)
+        }
+    }
+
+    /// The defaults with `lk` and `detector`: the one place the tracker's default counts,
+    /// gates, relocation and search schedule are written, for [`Default`] and the presets.
+    const fn with(lk: LkParams, detector: Detector) -> Self {
+        Self {
+            lk,
+            max_tracks: 100,
+            refill_below: 80,
+            detector,
+            detect_level: 1,
+            grid: Grid {
+                cols: 8,
+                rows: 6,
+                per_cell: 3,
             },
             border: 8,
             min_distance: 5,
@@ -232,7 +226,7 @@ impl TrackerConfig {
             fine_search: 1.0,
             fb_every: 8,
             fb_doubt: 0.25,
-            pyramid: PyramidFilter::Box,
+            pyramid: PyramidFilter::Gaussian,
         }
     }
 

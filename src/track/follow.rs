@@ -129,7 +129,7 @@ impl Follow<'_, '_> {
         let seeds = self.checked.constant_velocity;
         let mut seed = motion.median().filter(|_| seeds);
         for (track, step) in tracks.iter().zip(forward.iter_mut()) {
-            if self.guess(track).is_some() {
+            if self.predicted(track) {
                 continue;
             }
             *step = match seed {
@@ -153,11 +153,15 @@ impl Follow<'_, '_> {
     fn guess(&self, track: &Track) -> Option<Point> {
         match self.predict {
             Some(predict) => Some(predict(track.position)),
-            None if self.checked.constant_velocity && track.age > 0 => {
-                Some(offset(track.position, track.velocity, Point::default()))
-            }
-            None => None,
+            None => self
+                .predicted(track)
+                .then(|| offset(track.position, track.velocity, Point::default())),
         }
+    }
+
+    /// Whether [`Follow::guess`] has a prediction for `track`, without making it.
+    fn predicted(&self, track: &Track) -> bool {
+        self.predict.is_some() || (self.checked.constant_velocity && track.age > 0)
     }
 
     /// The forward step of `track` from `guess`, whose expected error is `expected`: from the

@@ -50,19 +50,24 @@ pub struct TrackerSettings {
 impl TrackerSettings {
     /// `config` with every given setting in place of its own.
     pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
-        let lk = LkParams {
-            window: self.window.unwrap_or(config.lk.window),
-            max_level: self.levels.unwrap_or(config.lk.max_level),
-            illumination: self.illumination.unwrap_or(config.lk.illumination),
-            template: self.template.unwrap_or(config.lk.template),
-            ..config.lk
-        };
         TrackerConfig {
-            lk,
+            lk: self.apply_lk(config.lk),
             fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
             max_residual: self.max_residual.unwrap_or(config.max_residual),
             min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
             ..config
+        }
+    }
+
+    /// `lk` with the given LK settings (window, levels, illumination, template) in place of
+    /// its own.
+    pub fn apply_lk(&self, lk: LkParams) -> LkParams {
+        LkParams {
+            window: self.window.unwrap_or(lk.window),
+            max_level: self.levels.unwrap_or(lk.max_level),
+            illumination: self.illumination.unwrap_or(lk.illumination),
+            template: self.template.unwrap_or(lk.template),
+            ..lk
         }
     }
 }

@@ -188,6 +188,42 @@ impl Matches {
         check(flag, value, rule)
     }
 
+    /// The value of `flag` among the named `choices`, if given: "must be a, b or c (got x)"
+    /// otherwise.
+    ///
+    /// ```
+    /// use host_sim::cli::args::{parse, Flag, Parsed};
+    /// let args = ["--model", "affine"].map(std::ffi::OsString::from);
+    /// let Ok(Parsed::Flags(m)) = parse(&args, &[Flag::value("--model")], 0) else { panic!() };
+    /// assert_eq!(m.choice("--model", &[("plain", 0), ("affine", 1)]), Ok(Some(1)));
+    /// assert_eq!(m.choice("--other", &[("plain", 0)]), Ok(None));
+    /// let e = m.choice("--model", &[("a", 0), ("b", 1), ("c", 2)]).unwrap_err();
+    /// assert_eq!(e.to_string(), "--model: must be a, b or c (got affine)");
+    /// ```
+    pub fn choice<T: Copy>(
+        &self,
+        flag: &'static str,
+        choices: &[(&str, T)],
+    ) -> Result<Option<T>, UsageError> {
+        let Some(raw) = self.value(flag) else {
+            return Ok(None);
+        };
+        if let Some(&(_, value)) = choices.iter().find(|(name, _)| raw == *name) {
+            return Ok(Some(value));
+        }
+        let names: Vec<&str> = choices.iter().map(|(name, _)| *name).collect();
+        let listed = match names.split_last() {
+            Some((last, [])) => (*last).to_string(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        };
+        let got = raw.to_string_lossy();
+        Err(UsageError::new(
+            flag,
+            format!("must be {listed} (got {got})"),
+        ))
+    }
+
     /// The decimal number given to `flag`, or `default`, checked against `rule`.
     pub fn number(
         &self,

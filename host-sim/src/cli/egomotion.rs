@@ -2,8 +2,6 @@
 
 use std::ffi::OsString;
 
-use kestrel::lk::LkParams;
-
 use kestrel::ego::camera::FOCAL_RANGE;
 use kestrel::ego::ModelKind;
 
@@ -133,13 +131,7 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
             settings.max_points = config.max_tracks;
         }
     }
-    let lk = super::track::settings(matches)?;
-    settings.lk = LkParams {
-        window: lk.window.unwrap_or(settings.lk.window),
-        max_level: lk.levels.unwrap_or(settings.lk.max_level),
-        illumination: lk.illumination.unwrap_or(settings.lk.illumination),
-        ..settings.lk
-    };
+    settings.lk = super::track::settings(matches)?.apply_lk(settings.lk);
     Ok(EgomotionOptions {
         input,
         out,

@@ -151,31 +151,20 @@ pub fn settings(matches: &Matches) -> Result<TrackerSettings, UsageError> {
             None
         })
     };
-    let illumination = match matches.value("--illumination") {
-        None => None,
-        Some(v) if v == "plain" => Some(Illumination::Plain),
-        Some(v) if v == "gain-bias" => Some(Illumination::GainBias),
-        Some(v) => {
-            return Err(UsageError::new(
-                "--illumination",
-                format!("must be plain or gain-bias (got {})", v.to_string_lossy()),
-            ))
-        }
-    };
-    let template = match matches.value("--template") {
-        None => None,
-        Some(v) if v == "at-point" => Some(TemplatePlacement::AtPoint),
-        Some(v) if v == "nearest-pixel" => Some(TemplatePlacement::NearestPixel),
-        Some(v) => {
-            return Err(UsageError::new(
-                "--template",
-                format!(
-                    "must be at-point or nearest-pixel (got {})",
-                    v.to_string_lossy()
-                ),
-            ))
-        }
-    };
+    let illumination = matches.choice(
+        "--illumination",
+        &[
+            ("plain", Illumination::Plain),
+            ("gain-bias", Illumination::GainBias),
+        ],
+    )?;
+    let template = matches.choice(
+        "--template",
+        &[
+            ("at-point", TemplatePlacement::AtPoint),
+            ("nearest-pixel", TemplatePlacement::NearestPixel),
+        ],
+    )?;
     Ok(TrackerSettings {
         template,
         window: integer("--window", WINDOW)?,
@@ -189,14 +178,7 @@ pub fn settings(matches: &Matches) -> Result<TrackerSettings, UsageError> {
 
 /// The `--preset` flag's value.
 pub fn preset(matches: &Matches) -> Result<Option<Preset>, UsageError> {
-    match matches.value("--preset") {
-        None => Ok(None),
-        Some(name) if name == "flow-sensor" => Ok(Some(Preset::FlowSensor)),
-        Some(name) => Err(UsageError::new(
-            "--preset",
-            format!("must be flow-sensor (got {})", name.to_string_lossy()),
-        )),
-    }
+    matches.choice("--preset", &[("flow-sensor", Preset::FlowSensor)])
 }
 
 #[cfg(test)]

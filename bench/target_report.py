@@ -228,7 +228,7 @@ def main(argv):
     out.append(row("OPTICAL_FLOW_RAD flow error (worst frame)", sensor["flow_error_px"] + " px",
                    "<= 0.050 px at the principal point"))
     for bad in records.get("sensor_bad_input", []):
-        out.append(f"    bad input -> {bad['outcome']}, quality {bad['quality']} "
+        out.append(f"    {bad['case']:<14} -> {bad['outcome']}, quality {bad['quality']} "
                    f"(MAVLink frame: {bad['mavlink_quality']})")
     out.append("")
     out.append(profile(records))

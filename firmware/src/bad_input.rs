@@ -11,18 +11,17 @@ use crate::scene::{FRAME_LEN, HEIGHT, WIDTH};
 use crate::stages::StageTimes;
 
 /// A frame the library must refuse, and the error it must refuse it with.
-struct BadInput {
-    name: &'static str,
-    pixels: &'static [u8],
-    size: (usize, usize),
-    expected: FrameError,
+pub struct BadInput {
+    pub name: &'static str,
+    pub pixels: &'static [u8],
+    pub size: (usize, usize),
+    pub expected: FrameError,
 }
 
-/// Feeds frames the library must refuse: each must come back as an error value, with a flow
-/// reading of quality 0 (in the reading and in its MAVLink frame), and the frames after them
-/// must be processed as before. The bad frames are cut from `good`, a valid frame.
-pub fn feed(pipeline: &mut Pipeline, meter: &Meter, good: &'static [u8]) -> bool {
-    let cases = [
+/// The bad frames, cut from `good`, a valid frame: a buffer one byte short, a zero-size frame
+/// and a frame of the wrong size.
+pub fn cases(good: &'static [u8]) -> [BadInput; 3] {
+    [
         BadInput {
             name: "short_buffer",
             pixels: good.get(..FRAME_LEN - 1).unwrap_or(&[]),
@@ -41,9 +40,15 @@ pub fn feed(pipeline: &mut Pipeline, meter: &Meter, good: &'static [u8]) -> bool
             size: (WIDTH / 2, HEIGHT / 2),
             expected: FrameError::Track(TrackerError::FrameSizeMismatch),
         },
-    ];
+    ]
+}
+
+/// Feeds frames the library must refuse: each must come back as an error value, with a flow
+/// reading of quality 0 (in the reading and in its MAVLink frame), and the frames after them
+/// must be processed as before. The bad frames are [`cases`] of `good`, a valid frame.
+pub fn feed(pipeline: &mut Pipeline, meter: &Meter, good: &'static [u8]) -> bool {
     let mut ok = true;
-    for case in cases {
+    for case in cases(good) {
         let mut times = StageTimes::default();
         let outcome = pipeline.process(case.pixels, case.size, meter, &mut times);
         let (flow, mavlink) = pipeline.latest_flow();

@@ -32,7 +32,7 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use dense::DenseMemory;
 use meter::{instructions, Meter};
-use pipeline::{Pipeline, TrackerMemory};
+use pipeline::{BudgetMemory, Pipeline};
 use report::{millipx_to_q16, Px};
 use scene::{FRAMES, HEIGHT, MOTION_MILLIPX, OBJECT_MOTION_MILLIPX, WIDTH};
 
@@ -41,7 +41,7 @@ const CALIBRATION_TOLERANCE_PPM: i64 = 1000;
 
 #[entry]
 fn main() -> ! {
-    static mut TRACKER_MEMORY: TrackerMemory = TrackerMemory::new();
+    static mut TRACKER_MEMORY: BudgetMemory = BudgetMemory::new();
     static mut DENSE_MEMORY: DenseMemory = DenseMemory::new();
     static mut SENSOR_MEMORY: sensor::SensorMemory = sensor::SensorMemory::new();
 
@@ -77,7 +77,7 @@ fn main() -> ! {
 /// moves, and that space must be free again before the first frame.
 #[inline(never)]
 fn make_pipeline(
-    tracker: &'static mut TrackerMemory,
+    tracker: &'static mut BudgetMemory,
     dense: &'static mut DenseMemory,
 ) -> &'static mut Pipeline {
     let pipeline = match Pipeline::new(tracker, dense) {

@@ -63,15 +63,24 @@ pub fn tracker_config() -> TrackerConfig {
     }
 }
 
-/// The tracker's buffers, in one `static` so that they land in `.bss`.
-pub struct TrackerMemory {
-    storage: [u8; STORAGE_LEN],
-    lk_scratch: [i16; LK_SCRATCH_LEN],
-    detect_scratch: [i32; DETECT_SCRATCH_LEN],
+/// A tracker's buffers, sized by the configuration they serve, in one `static` so that they
+/// land in `.bss`: `STORAGE` bytes of pyramids, `SCRATCH` values of LK scratch, `DETECT` words
+/// of Shi-Tomasi scratch (0 with FAST) and `CANDIDATES` corners.
+pub struct TrackerMemory<
+    const STORAGE: usize,
+    const SCRATCH: usize,
+    const DETECT: usize,
+    const CANDIDATES: usize,
+> {
+    storage: [u8; STORAGE],
+    lk_scratch: [i16; SCRATCH],
+    detect_scratch: [i32; DETECT],
     candidates: [Corner; CANDIDATES],
 }
 
-impl TrackerMemory {
+impl<const STORAGE: usize, const SCRATCH: usize, const DETECT: usize, const CANDIDATES: usize>
+    TrackerMemory<STORAGE, SCRATCH, DETECT, CANDIDATES>
+{
     /// Zeroed buffers, for a `static` initialiser.
     pub const fn new() -> Self {
         // `Corner::default` is not `const`.
@@ -80,13 +89,26 @@ impl TrackerMemory {
             score: 0,
         };
         Self {
-            storage: [0; STORAGE_LEN],
-            lk_scratch: [0; LK_SCRATCH_LEN],
-            detect_scratch: [0; DETECT_SCRATCH_LEN],
+            storage: [0; STORAGE],
+            lk_scratch: [0; SCRATCH],
+            detect_scratch: [0; DETECT],
             candidates: [NO_CORNER; CANDIDATES],
         }
     }
+
+    /// The buffers, lent to a tracker.
+    pub fn buffers(&mut self) -> TrackerBuffers<'_> {
+        TrackerBuffers {
+            storage: &mut self.storage,
+            lk_scratch: &mut self.lk_scratch,
+            detect_scratch: &mut self.detect_scratch,
+            candidates: &mut self.candidates,
+        }
+    }
 }
+
+/// The budget configuration's buffers.
+pub type BudgetMemory = TrackerMemory<STORAGE_LEN, LK_SCRATCH_LEN, DETECT_SCRATCH_LEN, CANDIDATES>;
 
 /// Why a frame produced no flow, or the pipeline could not be made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -135,15 +157,10 @@ pub struct Pipeline {
 impl Pipeline {
     /// A pipeline in the given buffers, its settings checked.
     pub fn new(
-        tracker: &'static mut TrackerMemory,
+        tracker: &'static mut BudgetMemory,
         dense: &'static mut DenseMemory,
     ) -> Result<Self, FrameError> {
-        let buffers = TrackerBuffers {
-            storage: &mut tracker.storage,
-            lk_scratch: &mut tracker.lk_scratch,
-            detect_scratch: &mut tracker.detect_scratch,
-            candidates: &mut tracker.candidates,
-        };
+        let buffers = tracker.buffers();
         let tracker =
             Tracker::new(tracker_config(), WIDTH, HEIGHT, buffers).map_err(FrameError::Track)?;
         Ok(Self {

@@ -5,20 +5,19 @@
 //! 168 MHz); its flow must be within 0.05 px of the scene's motion at the principal point.
 
 use cortex_m_semihosting::hprintln;
-use kestrel::detect::Corner;
 use kestrel::ego::ModelKind;
-use kestrel::frame::{ImageError, ImageView};
+use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
-use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig, TrackerError};
-use kestrel::Point;
+use kestrel::track::{tracker_storage_len, Tracker, TrackerConfig};
 
+use crate::bad_input;
 use crate::camera;
 use crate::checks::{flow_error, flow_tolerance, frame_quality};
 use crate::ego::Ego;
 use crate::meter::{instructions, Meter};
-use crate::pipeline::FrameError;
+use crate::pipeline::{FrameError, TrackerMemory};
 use crate::report::Micro;
-use crate::scene::{FRAMES, FRAME_LEN, HEIGHT, WIDTH};
+use crate::scene::{FRAMES, HEIGHT, WIDTH};
 
 /// The preset's settings.
 const CONFIG: TrackerConfig = TrackerConfig::flow_sensor();
@@ -29,28 +28,8 @@ const CANDIDATES: usize = 3 * TRACKS;
 const STORAGE_LEN: usize = tracker_storage_len(WIDTH, HEIGHT, CONFIG.pyramid_levels());
 const LK_SCRATCH_LEN: usize = scratch_len(CONFIG.lk.window);
 
-/// The preset's buffers, in one `static` so that they land in `.bss`. FAST needs no detection
-/// scratch.
-pub struct SensorMemory {
-    storage: [u8; STORAGE_LEN],
-    lk_scratch: [i16; LK_SCRATCH_LEN],
-    candidates: [Corner; CANDIDATES],
-}
-
-impl SensorMemory {
-    /// Zeroed buffers, for a `static` initialiser.
-    pub const fn new() -> Self {
-        const NO_CORNER: Corner = Corner {
-            position: Point::from_bits(0, 0),
-            score: 0,
-        };
-        Self {
-            storage: [0; STORAGE_LEN],
-            lk_scratch: [0; LK_SCRATCH_LEN],
-            candidates: [NO_CORNER; CANDIDATES],
-        }
-    }
-}
+/// The preset's buffers; FAST needs no detection scratch.
+pub type SensorMemory = TrackerMemory<STORAGE_LEN, LK_SCRATCH_LEN, 0, CANDIDATES>;
 
 /// The flow sensor: the preset's tracker and its motion fit.
 struct Sensor<'m> {
@@ -64,13 +43,8 @@ struct Sensor<'m> {
 
 impl<'m> Sensor<'m> {
     fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, FrameError> {
-        let buffers = TrackerBuffers {
-            storage: &mut memory.storage,
-            lk_scratch: &mut memory.lk_scratch,
-            detect_scratch: &mut [],
-            candidates: &mut memory.candidates,
-        };
-        let tracker = Tracker::new(CONFIG, WIDTH, HEIGHT, buffers).map_err(FrameError::Track)?;
+        let tracker =
+            Tracker::new(CONFIG, WIDTH, HEIGHT, memory.buffers()).map_err(FrameError::Track)?;
         Ok(Self {
             tracker,
             ego: Ego::new(ModelKind::Similarity)?,
@@ -171,28 +145,18 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
     ok
 }
 
-/// The budget run's three bad frames: each an error value with a reading of quality 0.
+/// The budget run's bad frames ([`bad_input::cases`]): each an error value with a reading of
+/// quality 0.
 fn refuses_bad_input(sensor: &mut Sensor<'_>, good: &'static [u8]) -> bool {
-    let cases: [(&'static [u8], (usize, usize), FrameError); 3] = [
-        (
-            good.get(..FRAME_LEN - 1).unwrap_or(&[]),
-            (WIDTH, HEIGHT),
-            FrameError::Image(ImageError::BufferTooSmall),
-        ),
-        (&[], (0, 0), FrameError::Image(ImageError::ZeroSize)),
-        (
-            good.get(..(WIDTH / 2) * (HEIGHT / 2)).unwrap_or(&[]),
-            (WIDTH / 2, HEIGHT / 2),
-            FrameError::Track(TrackerError::FrameSizeMismatch),
-        ),
-    ];
     let mut ok = true;
-    for (pixels, size, expected) in cases {
-        let outcome = sensor.frame(pixels, size).map(|_| ());
+    for case in bad_input::cases(good) {
+        let outcome = sensor.frame(case.pixels, case.size).map(|_| ());
         let (flow, mavlink) = sensor.ego.latest();
-        let refused = outcome == Err(expected) && flow.quality == 0 && frame_quality(mavlink) == 0;
+        let refused =
+            outcome == Err(case.expected) && flow.quality == 0 && frame_quality(mavlink) == 0;
         hprintln!(
-            "sensor_bad_input outcome={:?} quality={} mavlink_quality={}",
+            "sensor_bad_input case={} outcome={:?} quality={} mavlink_quality={}",
+            case.name,
             outcome,
             flow.quality,
             frame_quality(mavlink)

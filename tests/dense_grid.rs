@@ -11,7 +11,8 @@
 
 use host_sim::dense::DenseRunner;
 use host_sim::synth::{true_position, Homography, Lighting, Scene, SceneSpec, SplitMix64};
-use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode, NodeStatus};
+use host_sim::Frame;
+use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus};
 use kestrel::dense::DenseError;
 use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkParams};
@@ -54,43 +55,59 @@ struct GridErrors {
     filled: usize,
 }
 
+/// Every seed's scene unwarped and through each of its warps: (seed, warp index, warp, the
+/// two frames).
+fn warped_pairs(
+    width: usize,
+    height: usize,
+) -> impl Iterator<Item = (u64, u64, Homography, Frame, Frame)> {
+    SEEDS.into_iter().flat_map(move |seed| {
+        let scene = Scene::new(SceneSpec::new(width, height, seed).with_noise(NOISE));
+        let first = scene.render(&Homography::IDENTITY, Lighting::UNCHANGED, 0);
+        (0..WARPS_PER_SEED).map(move |index| {
+            let warp = random_warp(seed, index, width, height);
+            let second = scene.render(&warp, Lighting::UNCHANGED, 1 + index);
+            (seed, index, warp, first.clone(), second)
+        })
+    })
+}
+
+/// The endpoint errors of the valid `nodes` of `layout` against where `warp` takes their
+/// centres.
+fn node_errors(layout: &GridLayout, nodes: &[GridNode], warp: &Homography) -> Vec<f32> {
+    let valid = nodes.iter().enumerate().filter(|(_, n)| n.is_valid());
+    valid
+        .map(|(i, node)| {
+            let (col, row) = layout.node(i);
+            let (x, y) = layout.centre(col, row);
+            let (tx, ty) = true_position(warp, x as f32, y as f32);
+            let (dx, dy) = node.flow.to_f32();
+            (dx - (tx - x as f32)).hypot(dy - (ty - y as f32))
+        })
+        .collect()
+}
+
 fn grid_errors(width: usize, height: usize) -> GridErrors {
     let mut all = GridErrors {
         errors: Vec::new(),
         nodes: 0,
         filled: 0,
     };
-    for seed in SEEDS {
-        let scene = Scene::new(SceneSpec::new(width, height, seed).with_noise(NOISE));
-        let first = scene.render(&Homography::IDENTITY, Lighting::UNCHANGED, 0);
-        for index in 0..WARPS_PER_SEED {
-            let warp = random_warp(seed, index, width, height);
-            let second = scene.render(&warp, Lighting::UNCHANGED, 1 + index);
-            let mut runner = DenseRunner::new(DenseParams::default(), width, height).unwrap();
-            let summary = runner.compute(&first, &second).unwrap();
-            let layout = *runner.layout();
-            let mut errors = Vec::new();
-            for (i, node) in runner.nodes().iter().enumerate() {
-                if !node.is_valid() {
-                    continue;
-                }
-                let (col, row) = layout.node(i);
-                let (x, y) = layout.centre(col, row);
-                let (tx, ty) = true_position(&warp, x as f32, y as f32);
-                let (dx, dy) = node.flow.to_f32();
-                errors.push((dx - (tx - x as f32)).hypot(dy - (ty - y as f32)));
-            }
-            eprintln!(
-                "{width}x{height} seed {seed} warp {index}: {} of {} nodes valid, {} filled, median error {:.4} px",
-                errors.len(),
-                layout.len(),
-                summary.filled,
-                median(&errors)
-            );
-            all.errors.extend(errors);
-            all.nodes += layout.len();
-            all.filled += summary.filled;
-        }
+    for (seed, index, warp, first, second) in warped_pairs(width, height) {
+        let mut runner = DenseRunner::new(DenseParams::default(), width, height).unwrap();
+        let summary = runner.compute(&first, &second).unwrap();
+        let layout = *runner.layout();
+        let errors = node_errors(&layout, runner.nodes(), &warp);
+        eprintln!(
+            "{width}x{height} seed {seed} warp {index}: {} of {} nodes valid, {} filled, median error {:.4} px",
+            errors.len(),
+            layout.len(),
+            summary.filled,
+            median(&errors)
+        );
+        all.errors.extend(errors);
+        all.nodes += layout.len();
+        all.filled += summary.filled;
     }
     all
 }
@@ -225,41 +242,29 @@ fn searches_from_a_prediction_keep_the_grid_accurate_where_it_is_wrong() {
     let layout = dense.layout(width, height).unwrap();
     let mut scratch = vec![0i16; scratch_len(params.lk.window)];
     let (mut whole, mut predicted) = (Vec::new(), Vec::new());
-    for seed in SEEDS {
-        let scene = Scene::new(SceneSpec::new(width, height, seed).with_noise(NOISE));
-        let first = scene.render(&Homography::IDENTITY, Lighting::UNCHANGED, 0);
-        for index in 0..WARPS_PER_SEED {
-            let warp = random_warp(seed, index, width, height);
-            let second = scene.render(&warp, Lighting::UNCHANGED, 1 + index);
-            let len = pyramid_storage_len(width, height, 2);
-            let (mut sa, mut sb) = (vec![0u8; len], vec![0u8; len]);
-            let prev = Pyramid::build(first.view().unwrap(), 2, &mut sa).unwrap();
-            let next = Pyramid::build(second.view().unwrap(), 2, &mut sb).unwrap();
-            let predict = |p: kestrel::Point| {
-                let (x, y) = p.to_f32();
-                let (tx, ty) = true_position(&warp, x, y);
-                let off = if x < width as f32 / 2.0 { 4.0 } else { 0.0 };
-                kestrel::Point::from_f32(tx + off, ty)
-            };
-            let mut nodes = vec![GridNode::default(); layout.len()];
-            for (predicted_search, errors) in [(false, &mut whole), (true, &mut predicted)] {
-                if predicted_search {
-                    dense
-                        .compute_predicted(&prev, &next, &mut nodes, &mut scratch, &predict)
-                        .unwrap();
-                } else {
-                    dense
-                        .compute(&prev, &next, &mut nodes, &mut scratch)
-                        .unwrap();
-                }
-                for (i, node) in nodes.iter().enumerate().filter(|(_, n)| n.is_valid()) {
-                    let (col, row) = layout.node(i);
-                    let (x, y) = layout.centre(col, row);
-                    let (tx, ty) = true_position(&warp, x as f32, y as f32);
-                    let (dx, dy) = node.flow.to_f32();
-                    errors.push((dx - (tx - x as f32)).hypot(dy - (ty - y as f32)));
-                }
+    for (_, _, warp, first, second) in warped_pairs(width, height) {
+        let len = pyramid_storage_len(width, height, 2);
+        let (mut sa, mut sb) = (vec![0u8; len], vec![0u8; len]);
+        let prev = Pyramid::build(first.view().unwrap(), 2, &mut sa).unwrap();
+        let next = Pyramid::build(second.view().unwrap(), 2, &mut sb).unwrap();
+        let predict = |p: kestrel::Point| {
+            let (x, y) = p.to_f32();
+            let (tx, ty) = true_position(&warp, x, y);
+            let off = if x < width as f32 / 2.0 { 4.0 } else { 0.0 };
+            kestrel::Point::from_f32(tx + off, ty)
+        };
+        let mut nodes = vec![GridNode::default(); layout.len()];
+        for (predicted_search, errors) in [(false, &mut whole), (true, &mut predicted)] {
+            if predicted_search {
+                dense
+                    .compute_predicted(&prev, &next, &mut nodes, &mut scratch, &predict)
+                    .unwrap();
+            } else {
+                dense
+                    .compute(&prev, &next, &mut nodes, &mut scratch)
+                    .unwrap();
             }
+            errors.extend(node_errors(&layout, &nodes, &warp));
         }
     }
     let gross = |e: &[f32]| e.iter().filter(|&&e| e > 1.0).count() as f32 / e.len() as f32;

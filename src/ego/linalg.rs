@@ -18,6 +18,8 @@ pub(super) fn sqrt(x: f32) -> f32 {
 /// the largest entry) or the solution is not finite.
 // Every index is a loop variable below the arrays' const size N.
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+// Out of line: the four-point and least-squares homography fits share one copy.
+#[inline(never)]
 pub(super) fn solve<const N: usize>(mut a: [[f32; N]; N], mut b: [f32; N]) -> Option<[f32; N]> {
     let largest = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     if !(largest > 0.0 && largest.is_finite()) {

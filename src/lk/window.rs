@@ -215,13 +215,16 @@ pub(crate) fn gather(
 ) {
     if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
         // Inside the frame: a plain copy, row by row; rows of the common windows' lengths
-        // unrolled.
+        // unrolled. Bare-metal targets, short of flash, unroll only the lengths of the flight
+        // presets' 7 and 9 px windows, not those of the 21 px default.
         let stride = frame.stride();
         match cols {
             8 => copy_rows::<8>(block, stride, out),
             10 => copy_rows::<10>(block, stride, out),
             12 => copy_rows::<12>(block, stride, out),
+            #[cfg(not(target_os = "none"))]
             22 => copy_rows::<22>(block, stride, out),
+            #[cfg(not(target_os = "none"))]
             24 => copy_rows::<24>(block, stride, out),
             _ => copy_any_rows(block, stride, cols, out),
         }

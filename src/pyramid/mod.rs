@@ -47,13 +47,11 @@ impl core::fmt::Display for PyramidError {
 /// assert_eq!(level_size(1, 5), 1);
 /// ```
 pub const fn level_size(size: usize, level: usize) -> usize {
-    let mut s = size;
-    let mut l = 0;
-    while l < level {
-        s = s.div_ceil(2);
-        l += 1;
+    // Halving and rounding up `level` times is one division by 2^level, rounded up.
+    if level >= usize::BITS as usize {
+        return if size == 0 { 0 } else { 1 };
     }
-    s
+    size.div_ceil(1 << level)
 }
 
 /// Bytes of storage for levels `1..=max_level` of a pyramid over a `width` x `height` frame.
@@ -274,8 +272,18 @@ impl defmt::Format for Pyramid<'_> {
 /// Mirrors an index into `0..n` the way OpenCV's `BORDER_REFLECT_101` does (`dcb|abcd|cba`).
 #[inline]
 pub(crate) fn reflect101(i: isize, n: usize) -> usize {
+    if i >= 0 && (i as usize) < n {
+        return i as usize;
+    }
+    reflect_outside(i, n)
+}
+
+/// [`reflect101`] for an index outside `0..n`: rare (a few per row), so out of line.
+#[cold]
+#[inline(never)]
+fn reflect_outside(i: isize, n: usize) -> usize {
     let n = n as isize;
-    if n == 1 {
+    if n <= 1 {
         return 0;
     }
     let mut i = i;
@@ -334,6 +342,24 @@ mod tests {
         assert_eq!(reflect101(-2, 2), 0);
         assert_eq!(reflect101(3, 2), 1);
         assert_eq!(reflect101(-3, 1), 0);
+    }
+
+    #[test]
+    fn level_size_is_repeated_halving_rounded_up() {
+        for size in 0..300usize {
+            let mut halved = size;
+            for level in 0..12 {
+                assert_eq!(
+                    level_size(size, level),
+                    halved,
+                    "size {size}, level {level}"
+                );
+                halved = halved.div_ceil(2);
+            }
+        }
+        assert_eq!(level_size(usize::MAX, 1), usize::MAX / 2 + 1);
+        assert_eq!(level_size(usize::MAX, 200), 1);
+        assert_eq!(level_size(0, 200), 0);
     }
 
     #[test]

@@ -709,28 +709,22 @@ impl<const N: usize> TrackSet<N> {
         let corners = refill::new_corners(config, &level_image, size, &live, buffers)
             .map_err(TrackerError::Detect)?;
         report.detected = true;
-        let check = &checked.texture_check;
         for corner in corners {
             if self.tracks.len() >= config.max_tracks {
                 break;
             }
-            let position = corner.position;
-            let still = check
-                .track_point(pyramid, pyramid, position, None, lk_scratch)
-                .map_err(TrackerError::Lk)?;
-            if !still.is_tracked() {
+            let Some(anchor) = newborn(checked, pyramid, corner.position, lk_scratch)? else {
                 continue;
-            }
+            };
             let track = Track {
                 id: self.next_id,
-                position,
+                position: corner.position,
                 age: 0,
                 residual: Q16::ZERO,
                 born,
                 velocity: Point::default(),
                 prediction_error: Q16::MAX,
             };
-            let anchor = Anchor::capture(&pyramid.base(), position);
             if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
                 break;
             }
@@ -739,6 +733,24 @@ impl<const N: usize> TrackSet<N> {
         }
         Ok(())
     }
+}
+
+/// The anchor of a track born at `position`, or `None` where LK rejects the corner's window.
+// Not generic over the capacity, and out of line: one copy serves every tracker size.
+#[inline(never)]
+fn newborn(
+    checked: &Checked,
+    pyramid: &Pyramid<'_>,
+    position: Point,
+    lk_scratch: &mut [i16],
+) -> Result<Option<Anchor>, TrackerError> {
+    let still = checked
+        .texture_check
+        .track_point(pyramid, pyramid, position, None, lk_scratch)
+        .map_err(TrackerError::Lk)?;
+    Ok(still
+        .is_tracked()
+        .then(|| Anchor::capture(&pyramid.base(), position)))
 }
 
 /// Where and when new tracks are born, and by which rules.

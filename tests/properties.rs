@@ -652,6 +652,7 @@ fn dense_settings() -> impl Strategy<Value = MotionSettings> {
                         },
                         max_residual,
                         fill_passes,
+                        ..defaults
                     },
                     fit: FitParams::default(),
                     motion: MotionParams {

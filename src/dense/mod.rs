@@ -74,6 +74,13 @@
 //! assert_eq!((summary.layout.cols(), summary.layout.rows()), (4, 3));
 //! ```
 
+// The camera check's sums are bounded by its 15 px window (`agreement::MAX_CHECKED_WINDOW`):
+// at most 15 * 15 * 65,280 < 2^24, and each difference of grey x 32 fits an i16.
+#[cfg_attr(
+    not(test),
+    allow(clippy::arithmetic_side_effects, clippy::cast_possible_truncation)
+)]
+mod agreement;
 pub mod dominant;
 pub mod fill;
 pub mod grid;

@@ -90,6 +90,8 @@ pub fn run(data: &[u8]) {
         },
         max_residual: input.max_residual,
         fill_passes: input.fill_passes % 6,
+        // 0 (off) to 1.5 px: the last two are refused.
+        camera_tolerance: f32::from(input.fill_passes % 7) * 0.25,
     };
     let Ok(dense) = DenseFlow::new(params) else {
         return;

@@ -225,6 +225,9 @@ def main(argv):
     out.append(row("whole sensor frame", sensor["instructions_per_frame"],
                    f"budget {SENSOR_BUDGET_INSTRUCTIONS}: {int(sensor['instructions_per_frame']) / SENSOR_BUDGET_INSTRUCTIONS:.2f}x"))
     out.append(row("  worst frame", sensor["worst"]))
+    link = one(records, "link")
+    out.append(row("MAVLink sending per readout", link["instructions_per_frame"],
+                   f"beside the frame: HEARTBEAT/s, OPTICAL_FLOW_RAD, OPTICAL_FLOW; worst {link['worst']}"))
     out.append(row("OPTICAL_FLOW_RAD flow error (worst frame)", sensor["flow_error_px"] + " px",
                    "<= 0.050 px at the principal point"))
     for bad in records.get("sensor_bad_input", []):

@@ -7,8 +7,8 @@
 use heapless::Vec;
 use kestrel::ego::mavlink::{encode_optical_flow_rad, EncodeError, MavlinkHeader, MAX_FRAME_LEN};
 use kestrel::ego::{
-    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, OpticalFlowRad,
-    Ransac, RansacParams,
+    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, OpticalFlow,
+    OpticalFlowRad, Ransac, RansacParams,
 };
 use kestrel::track::Track;
 use kestrel::Point;
@@ -112,6 +112,11 @@ impl Ego {
             &self.reading,
             self.frame.get(..self.frame_len).unwrap_or(&[]),
         )
+    }
+
+    /// The latest reading as OPTICAL_FLOW: the same integration, in ArduPilot's message.
+    pub fn optical_flow(&self) -> OpticalFlow {
+        self.accumulator.optical_flow(&self.reading)
     }
 
     /// The camera's focal length, px.

@@ -1,6 +1,7 @@
 //! Kestrel on an STM32F405: the per-frame pipeline (pyramid, tracker with refill, ego-motion and
 //! its OPTICAL_FLOW_RAD frame, dense grid and motion boxes) on synthetic frames in flash, checked
-//! against the scene's ground truth, with its cost measured per stage.
+//! against the scene's ground truth, with its cost measured per stage; and the flow-sensor
+//! preset, whose readouts go out as MAVLink 2 on USART2 (`bench/mavlink_link.sh` reads them).
 //!
 //! `cargo run --release` runs it in QEMU (see `.cargo/config.toml`); `bench/target.sh` at the
 //! repository root runs it and prints the table. The output is one `key=value` record per line.
@@ -15,6 +16,7 @@ mod checks;
 mod dense;
 mod dsp_check;
 mod ego;
+mod link;
 mod memory;
 mod meter;
 mod pipeline;
@@ -26,6 +28,7 @@ mod sensor;
 mod stack;
 mod stages;
 mod summary;
+mod usart;
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
@@ -55,7 +58,8 @@ fn main() -> ! {
     let pipeline = make_pipeline(TRACKER_MEMORY, DENSE_MEMORY);
     memory::print();
     let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked;
-    let passed = sensor::run(&meter, SENSOR_MEMORY) && passed;
+    let mut link = link::Link::new();
+    let passed = sensor::run(&meter, SENSOR_MEMORY, &mut link) && passed;
     profile::run(&meter, pipeline);
     px4flow::run(&meter);
     hprintln!("stack peak={} reserved={}", stack::peak(), stack::size());

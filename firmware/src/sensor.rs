@@ -3,6 +3,12 @@
 //! OPTICAL_FLOW_RAD reading with the MAVLink frame, all timed as one, over the same frames as the
 //! budget run and with the same bad input. Its budget is 420,000 instructions a frame (400 Hz at
 //! 168 MHz); its flow must be within 0.05 px of the scene's motion at the principal point.
+//!
+//! Every readout goes out on the autopilot link ([`Link`]), timed apart from the frame. After
+//! the checked sequence the sensor keeps flying the frames back and forth (the motion reverses
+//! at each end) until [`LINK_SECONDS`] of frame clock have passed, so the stream carries a
+//! heartbeat every second; those frames are sent, not checked here (`bench/mavlink_link.sh`
+//! checks every message on the host).
 
 use cortex_m_semihosting::hprintln;
 use kestrel::ego::ModelKind;
@@ -14,10 +20,16 @@ use crate::bad_input;
 use crate::camera;
 use crate::checks::{flow_error, flow_tolerance, frame_quality};
 use crate::ego::Ego;
+use crate::link::{Link, SendCost};
 use crate::meter::{instructions, Meter};
 use crate::pipeline::{FrameError, TrackerMemory};
 use crate::report::Micro;
-use crate::scene::{FRAMES, HEIGHT, WIDTH};
+use crate::scene::{FRAMES, FRAME_INTERVAL_US, HEIGHT, WIDTH};
+
+/// Frame clock the link runs for, microseconds: past the heartbeats at 0, 1 and 2 s.
+pub const LINK_SECONDS_US: u64 = 2_050_000;
+/// [`LINK_SECONDS_US`] for the docs.
+pub const LINK_SECONDS: f32 = 2.05;
 
 /// The preset's settings.
 const CONFIG: TrackerConfig = TrackerConfig::flow_sensor();
@@ -86,11 +98,20 @@ impl<'m> Sensor<'m> {
     }
 }
 
-/// Runs the preset over the sequence with the budget run's bad input after frame 5; prints a
-/// line per frame and a summary. False when its flow misses the scene's motion, a bad frame is
-/// not refused with quality 0, or the preset cannot be made.
+/// Sends the latest readout on `link`, timed into `cost`.
+fn send(sensor: &Sensor<'_>, link: &mut Link, cost: &mut SendCost) {
+    let (rad, _) = sensor.ego.latest();
+    let flow = sensor.ego.optical_flow();
+    let ((), ticks) = sensor.meter.measure(|| link.send(rad, &flow));
+    cost.add(instructions(ticks));
+}
+
+/// Runs the preset over the sequence with the budget run's bad input after frame 5, sending
+/// every readout on `link`; prints a line per frame and a summary, then flies on for the link
+/// ([`fly`]). False when its flow misses the scene's motion, a bad frame is not refused with
+/// quality 0, or the preset cannot be made.
 #[inline(never)]
-pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
+pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) -> bool {
     let mut sensor = match Sensor::new(memory, meter) {
         Ok(s) => s,
         Err(e) => {
@@ -99,11 +120,15 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
         }
     };
     let focal = sensor.ego.focal_length();
+    let mut cost = SendCost::default();
     let (mut ok, mut total, mut worst, mut frames, mut worst_error) = (true, 0, 0, 0, 0.0f32);
     for index in 0..FRAMES {
         let (outcome, ticks) =
             meter.measure(|| sensor.frame(camera::frame(index), (WIDTH, HEIGHT)));
         let spent = instructions(ticks);
+        if outcome != Ok(false) {
+            send(&sensor, link, &mut cost);
+        }
         match outcome {
             Ok(true) => {
                 let (flow, _) = sensor.ego.latest();
@@ -130,7 +155,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
             }
         }
         if index == 5 {
-            ok &= refuses_bad_input(&mut sensor, camera::frame(6));
+            ok &= refuses_bad_input(&mut sensor, camera::frame(6), link, &mut cost);
         }
     }
     let mean = total / frames.max(1);
@@ -142,15 +167,66 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory) -> bool {
         Micro(worst_error * focal),
         sensor.tracker.tracks().len()
     );
+    fly(&mut sensor, link, &mut cost);
     ok
+}
+
+/// Flies the frames back and forth after the sequence, sending every readout, until
+/// [`LINK_SECONDS_US`] of frame clock have passed; prints the link's record.
+fn fly(sensor: &mut Sensor<'_>, link: &mut Link, cost: &mut SendCost) {
+    let mut clock = sensor.ego.latest().0.time_usec;
+    let mut position = FRAMES;
+    let mut errors = 0u32;
+    while clock < LINK_SECONDS_US {
+        // 0, 1, ..., 11, 10, ..., 1, 0, 1, ...: every pair one step of the scene's motion.
+        let period = 2 * (FRAMES - 1);
+        let phase = position % period;
+        let index = if phase < FRAMES {
+            phase
+        } else {
+            period - phase
+        };
+        if sensor.frame(camera::frame(index), (WIDTH, HEIGHT)).is_err() {
+            errors += 1;
+        }
+        send(sensor, link, cost);
+        clock = sensor.ego.latest().0.time_usec;
+        position += 1;
+    }
+    link.pump();
+    let counts = link.counts();
+    hprintln!(
+        "link heartbeats={} optical_flow_rad={} optical_flow={} invalid={} dropped={} bytes={} \
+         pending={} readouts={} instructions_per_frame={} worst={} seconds={} frame_us={} \
+         flight_errors={}",
+        counts.heartbeats,
+        counts.flow_rad,
+        counts.flow,
+        counts.invalid,
+        counts.dropped,
+        counts.bytes,
+        link.pending(),
+        cost.readouts,
+        cost.mean(),
+        cost.worst,
+        LINK_SECONDS,
+        FRAME_INTERVAL_US,
+        errors
+    );
 }
 
 /// The budget run's bad frames ([`bad_input::cases`]): each an error value with a reading of
 /// quality 0.
-fn refuses_bad_input(sensor: &mut Sensor<'_>, good: &'static [u8]) -> bool {
+fn refuses_bad_input(
+    sensor: &mut Sensor<'_>,
+    good: &'static [u8],
+    link: &mut Link,
+    cost: &mut SendCost,
+) -> bool {
     let mut ok = true;
     for case in bad_input::cases(good) {
         let outcome = sensor.frame(case.pixels, case.size).map(|_| ());
+        send(sensor, link, cost);
         let (flow, mavlink) = sensor.ego.latest();
         let refused =
             outcome == Err(case.expected) && flow.quality == 0 && frame_quality(mavlink) == 0;

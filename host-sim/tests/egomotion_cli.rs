@@ -325,26 +325,51 @@ fn an_exact_gyro_keeps_pure_rotation_rows_correct() {
         "{flow_x} {roll_per_frame}"
     );
 
-    // One MAVLink 2 OPTICAL_FLOW_RAD frame per pair, sequence numbers from 0.
+    // A HEARTBEAT, then OPTICAL_FLOW_RAD and OPTICAL_FLOW per pair; one sequence from 0.
     let bytes = fs::read(&mavlink).unwrap();
-    let mut offset = 0;
-    for (sequence, row) in rows.iter().enumerate() {
-        let frame = &bytes[offset..];
-        let len = 10 + usize::from(frame[1]) + 2;
+    let frames = mavlink_frames(&bytes);
+    assert_eq!(frames.len(), 1 + 2 * rows.len());
+    for (sequence, frame) in frames.iter().enumerate() {
         assert_eq!(frame[0], 0xFD);
         assert_eq!(
             (usize::from(frame[4]), frame[5], frame[6]),
             (sequence, 1, 100)
         );
-        assert_eq!(&frame[7..10], &[106, 0, 0]);
+    }
+    assert_eq!(message_id(frames[0]), 0);
+    for (pair, row) in frames[1..].chunks(2).zip(&rows) {
+        let (rad, flow) = (pair[0], pair[1]);
+        assert_eq!((message_id(rad), message_id(flow)), (106, 100));
         // integrated_xgyro is the fifth payload field, after an u64, an u32 and two f32.
-        let xgyro = f32::from_le_bytes(frame[10 + 20..10 + 24].try_into().unwrap());
+        let xgyro = f32::from_le_bytes(rad[10 + 20..10 + 24].try_into().unwrap());
         assert!((f64::from(xgyro) - roll_per_frame).abs() < 1e-4, "{xgyro}");
-        // Quality is the last payload byte (when not trimmed as zero).
-        assert_eq!(frame[10 + 43], row.quality);
+        // Quality is the last payload byte of OPTICAL_FLOW_RAD (when not trimmed as zero),
+        // byte 25 of OPTICAL_FLOW's.
+        assert_eq!((rad[10 + 43], flow[10 + 25]), (row.quality, row.quality));
+        // flow_rate_x (bytes 26..30) is integrated_x per second, at 30 frames per second.
+        let rate_x = f32::from_le_bytes(flow[10 + 26..10 + 30].try_into().unwrap());
+        let integrated_x = f32::from_le_bytes(rad[10 + 12..10 + 16].try_into().unwrap());
+        let seconds = u32::from_le_bytes(rad[18..22].try_into().unwrap()) as f32 * 1e-6;
+        assert!((rate_x - integrated_x / seconds).abs() < 1e-5, "{rate_x}");
+    }
+}
+
+/// Splits a MAVLink 2 byte stream into its (unsigned) frames.
+fn mavlink_frames(bytes: &[u8]) -> Vec<&[u8]> {
+    let mut frames = Vec::new();
+    let mut offset = 0;
+    while offset < bytes.len() {
+        let len = 12 + usize::from(bytes[offset + 1]);
+        frames.push(&bytes[offset..offset + len]);
         offset += len;
     }
-    assert_eq!(offset, bytes.len());
+    assert_eq!(offset, bytes.len(), "the last frame is cut");
+    frames
+}
+
+/// A MAVLink 2 frame's message id.
+fn message_id(frame: &[u8]) -> u32 {
+    u32::from_le_bytes([frame[7], frame[8], frame[9], 0])
 }
 
 #[test]
@@ -366,14 +391,11 @@ fn the_frame_rate_comes_from_the_y4m_header_unless_given() {
         args.extend_from_slice(extra);
         assert_success(&host_sim(&args));
         let bytes = fs::read(&mavlink).unwrap();
-        let mut times = Vec::new();
-        let mut offset = 0;
-        while offset < bytes.len() {
-            let payload = &bytes[offset + 10..];
-            times.push(u32::from_le_bytes(payload[8..12].try_into().unwrap()));
-            offset += 12 + usize::from(bytes[offset + 1]);
-        }
-        times
+        mavlink_frames(&bytes)
+            .into_iter()
+            .filter(|frame| message_id(frame) == 106)
+            .map(|frame| u32::from_le_bytes(frame[18..22].try_into().unwrap()))
+            .collect::<Vec<_>>()
     };
     assert_eq!(integration_times(&[]), [16_667, 16_666]);
     assert_eq!(integration_times(&[&"--fps", &"25"]), [40_000, 40_000]);
@@ -555,13 +577,9 @@ fn a_frame_of_another_size_stops_egomotion_and_keeps_the_pairs_before_it() {
     let frames: Vec<usize> = rows.iter().map(|r| r.frame).collect();
     assert_eq!(frames, [1, 2, 3]);
     assert!(rows.iter().all(|r| r.quality > 0));
-    // Three MAVLink frames, the last one complete.
+    // A heartbeat and two frames per pair, the last one complete.
     let bytes = fs::read(&mavlink).unwrap();
-    let mut offset = 0;
-    for _ in 0..3 {
-        offset += 12 + usize::from(bytes[offset + 1]);
-    }
-    assert_eq!(offset, bytes.len());
+    assert_eq!(mavlink_frames(&bytes).len(), 1 + 2 * 3);
 }
 
 #[test]
@@ -702,4 +720,114 @@ fn an_unwritable_output_fails_before_any_work_and_writes_nothing() {
     fs::write(&file, "not a directory").unwrap();
     let output = host_sim(&[&"stabilize", &input, &"--out", &file]);
     assert_one_line_error(&output, 1, &["taken", "cannot create"]);
+}
+
+#[test]
+fn udp_streams_every_pair_to_a_listener_and_a_missing_one_costs_nothing() {
+    let scratch = Scratch::new("udp");
+    let input = pan_frames(&scratch, 6);
+    let out = scratch.path("ego.csv");
+    let listener = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    listener
+        .set_read_timeout(Some(std::time::Duration::from_secs(5)))
+        .unwrap();
+    let destination = format!("udp:{}", listener.local_addr().unwrap());
+    let output = host_sim(&[
+        &"egomotion",
+        &input,
+        &"--out",
+        &out,
+        &"--mavlink",
+        &destination,
+    ]);
+    assert_success(&output);
+    let rows = read_ego(&out);
+    assert_eq!(rows.len(), 5);
+    // One frame per datagram: a heartbeat, then OPTICAL_FLOW_RAD and OPTICAL_FLOW per pair.
+    let mut buf = [0u8; 300];
+    let mut ids = Vec::new();
+    for sequence in 0..1 + 2 * rows.len() {
+        let len = listener.recv(&mut buf).unwrap();
+        let frame = &buf[..len];
+        assert_eq!(mavlink_frames(frame).len(), 1);
+        assert_eq!(usize::from(frame[4]), sequence);
+        ids.push(message_id(frame));
+        if message_id(frame) == 100 {
+            assert_eq!(frame[10 + 25], rows[(sequence - 2) / 2].quality);
+        }
+    }
+    assert_eq!(ids, [0, 106, 100, 106, 100, 106, 100, 106, 100, 106, 100]);
+
+    // The listener is gone: the run succeeds and says on one line what it could not send.
+    drop(listener);
+    let output = host_sim(&[
+        &"egomotion",
+        &input,
+        &"--out",
+        &out,
+        &"--mavlink",
+        &destination,
+    ]);
+    assert!(output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.lines().count() <= 1, "{stderr}");
+    if let Some(line) = stderr.lines().next() {
+        assert!(
+            line.starts_with(&format!("host-sim: {destination}: ")),
+            "{line}"
+        );
+        assert!(
+            line.contains("of 11 MAVLink datagrams could not be sent"),
+            "{line}"
+        );
+    }
+    assert_eq!(read_ego(&out).len(), 5);
+}
+
+#[test]
+fn a_malformed_or_unresolvable_udp_destination_fails_before_any_frame_is_read() {
+    let scratch = Scratch::new("badudp");
+    let out = scratch.path("ego.csv");
+    // The input does not exist: the destination is checked first.
+    let input = scratch.path("no-frames");
+    for (destination, code, culprits) in [
+        ("udp:", 2, &["--mavlink", "udp:HOST:PORT"][..]),
+        ("udp:localhost:0", 2, &["--mavlink", "port"]),
+        ("udp::14550", 2, &["--mavlink", "host"]),
+        (
+            "udp:no-such-host.invalid:14550",
+            1,
+            &["udp:no-such-host.invalid:14550", "resolve"],
+        ),
+    ] {
+        let output = host_sim(&[
+            &"egomotion",
+            &input,
+            &"--out",
+            &out,
+            &"--mavlink",
+            &destination,
+        ]);
+        assert_one_line_error(&output, code, culprits);
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn rate_paces_the_replay_in_real_time() {
+    let scratch = Scratch::new("rate");
+    let input = pan_frames(&scratch, 4);
+    let out = scratch.path("ego.csv");
+    let start = std::time::Instant::now();
+    assert_success(&host_sim(&[
+        &"egomotion",
+        &input,
+        &"--out",
+        &out,
+        &"--rate",
+        &"20",
+    ]));
+    // Frame 3 is let through 3 / 20 s after frame 0.
+    assert!(start.elapsed().as_secs_f64() >= 0.15);
+    assert_eq!(read_ego(&out).len(), 3);
 }

@@ -1,4 +1,4 @@
-//! The MAVLink OPTICAL_FLOW_RAD accumulator.
+//! The MAVLink OPTICAL_FLOW_RAD accumulator, and the OPTICAL_FLOW reading of the same integration.
 //!
 //! An angular-rate flow sensor integrates flow and gyro between readouts: the camera may run at
 //! 100 Hz while the autopilot reads 20 times a second. Per frame pair, [`FlowRadAccumulator::add`]
@@ -126,6 +126,155 @@ impl OpticalFlowRad {
     pub fn wire_distance(&self) -> f32 {
         self.distance.unwrap_or(-1.0)
     }
+}
+
+/// One OPTICAL_FLOW reading (MAVLink message 100): the same integration as an
+/// [`OpticalFlowRad`], in the units of the older message, which ArduPilot reads.
+///
+/// Made by [`OpticalFlow::from_rad`] (or [`FlowRadAccumulator::optical_flow`]), so both
+/// messages of a readout carry the same flow, signs and quality:
+///
+/// - `flow_rate_x/y` (rad/s) are `integrated_x/y` divided by the integration time: positive
+///   for a right-hand rotation about the sensor axis. ArduPilot uses these whenever a sensor
+///   has sent one non-zero.
+/// - `flow_x/y` (deci-pixels) are the same flow as the image displacement at the principal
+///   point, `10 f tan(integrated)`: exact when a readout integrates one frame pair. ArduPilot
+///   falls back to them for sensors that never fill `flow_rate_x/y`.
+/// - `flow_comp_m_x/y` (m/s) are the rates less the gyro's, times the distance: the speed over
+///   the ground the flow implies, with the same signs; 0 without a gyro or a distance (neither
+///   autopilot reads them).
+///
+/// Every field is finite. A reading that would not be (a NaN put into the public fields of an
+/// `OpticalFlowRad`, a zero focal length) is sent as no flow with quality 0.
+///
+/// ```
+/// use kestrel::ego::{OpticalFlow, OpticalFlowRad};
+/// let rad = OpticalFlowRad {
+///     integration_time_us: 10_000,
+///     integrated_x: 0.005,
+///     quality: 180,
+///     ..Default::default()
+/// };
+/// let flow = OpticalFlow::from_rad(&rad, (140.0, 140.0));
+/// assert!((flow.flow_rate_x - 0.5).abs() < 1e-6); // 0.005 rad in 10 ms
+/// assert_eq!((flow.flow_x, flow.flow_y, flow.quality), (7, 0, 180)); // 0.7 px
+/// assert_eq!((flow.flow_comp_m_x, flow.wire_ground_distance()), (0.0, -1.0));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OpticalFlow {
+    /// Timestamp of the readout, microseconds (the OPTICAL_FLOW_RAD reading's).
+    pub time_usec: u64,
+    /// Sensor ID.
+    pub sensor_id: u8,
+    /// Flow about X as image displacement at the principal point, deci-pixels (saturated).
+    pub flow_x: i16,
+    /// Flow about Y as image displacement at the principal point, deci-pixels (saturated).
+    pub flow_y: i16,
+    /// `flow_rate_x` less the gyro's rate about X, times the distance, m/s; 0 when unknown.
+    pub flow_comp_m_x: f32,
+    /// `flow_rate_y` less the gyro's rate about Y, times the distance, m/s; 0 when unknown.
+    pub flow_comp_m_y: f32,
+    /// 0 (no valid flow) to 255, as in the OPTICAL_FLOW_RAD reading.
+    pub quality: u8,
+    /// Distance to the ground, metres; `None` when unknown.
+    pub ground_distance: Option<f32>,
+    /// Flow rate about X, rad/s.
+    pub flow_rate_x: f32,
+    /// Flow rate about Y, rad/s.
+    pub flow_rate_y: f32,
+}
+
+impl OpticalFlow {
+    /// The OPTICAL_FLOW reading of `reading`, for a camera of focal lengths `(fx, fy)` px.
+    ///
+    /// ```
+    /// use kestrel::ego::{OpticalFlow, OpticalFlowRad};
+    /// let rad = OpticalFlowRad {
+    ///     integration_time_us: 20_000,
+    ///     integrated_y: -0.01,
+    ///     integrated_ygyro: Some(0.0),
+    ///     integrated_xgyro: Some(0.0),
+    ///     integrated_zgyro: Some(0.0),
+    ///     distance: Some(2.0),
+    ///     quality: 99,
+    ///     ..Default::default()
+    /// };
+    /// let flow = OpticalFlow::from_rad(&rad, (100.0, 100.0));
+    /// assert!((flow.flow_rate_y + 0.5).abs() < 1e-6);
+    /// assert!((flow.flow_comp_m_y + 1.0).abs() < 1e-6); // -0.5 rad/s at 2 m
+    /// assert_eq!((flow.flow_y, flow.ground_distance), (-10, Some(2.0)));
+    /// // Nothing that is not finite reaches the wire: such a reading has quality 0.
+    /// let broken = OpticalFlowRad { integrated_x: f32::NAN, quality: 200, ..rad };
+    /// assert_eq!(OpticalFlow::from_rad(&broken, (100.0, 100.0)).quality, 0);
+    /// ```
+    pub fn from_rad(reading: &OpticalFlowRad, (fx, fy): (f32, f32)) -> Self {
+        let empty = Self {
+            time_usec: reading.time_usec,
+            sensor_id: reading.sensor_id,
+            ground_distance: reading.distance.filter(|d| d.is_finite() && *d >= 0.0),
+            ..Self::default()
+        };
+        if reading.quality == 0 || reading.integration_time_us == 0 {
+            return empty;
+        }
+        let seconds = reading.integration_time_us as f32 * 1e-6;
+        let rate = (
+            reading.integrated_x / seconds,
+            reading.integrated_y / seconds,
+        );
+        let pixels = (
+            fx * libm::tanf(reading.integrated_x),
+            fy * libm::tanf(reading.integrated_y),
+        );
+        let comp = match (reading.integrated_xgyro, reading.integrated_ygyro) {
+            (Some(gx), Some(gy)) => empty
+                .ground_distance
+                .map(|d| ((rate.0 - gx / seconds) * d, (rate.1 - gy / seconds) * d)),
+            _ => None,
+        };
+        // A speed that cannot be known (a NaN put in the gyro) is unknown, not a spoilt flow.
+        let comp = comp
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .unwrap_or((0.0, 0.0));
+        if ![rate.0, rate.1, pixels.0, pixels.1]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return empty;
+        }
+        Self {
+            flow_x: deci_pixels(pixels.0),
+            flow_y: deci_pixels(pixels.1),
+            flow_comp_m_x: comp.0,
+            flow_comp_m_y: comp.1,
+            quality: reading.quality,
+            flow_rate_x: rate.0,
+            flow_rate_y: rate.1,
+            ..empty
+        }
+    }
+
+    /// `ground_distance` as MAVLink sends it: -1 when unknown.
+    ///
+    /// ```
+    /// use kestrel::ego::OpticalFlow;
+    /// let flow = OpticalFlow { ground_distance: Some(3.0), ..Default::default() };
+    /// assert_eq!(flow.wire_ground_distance(), 3.0);
+    /// assert_eq!(OpticalFlow::default().wire_ground_distance(), -1.0);
+    /// ```
+    pub fn wire_ground_distance(&self) -> f32 {
+        self.ground_distance.unwrap_or(-1.0)
+    }
+}
+
+/// Pixels as deci-pixels, rounded and saturated to `i16` (a finite input).
+fn deci_pixels(pixels: f32) -> i16 {
+    let deci = libm::roundf(pixels * 10.0);
+    // Clamped to the range of `i16` first, so `as` only drops the (zero) fraction.
+    #[allow(clippy::cast_possible_truncation)]
+    let deci = deci.clamp(f32::from(i16::MIN), f32::from(i16::MAX)) as i16;
+    deci
 }
 
 /// Integrates frame-to-frame motion and gyro readings into [`OpticalFlowRad`] readouts.
@@ -282,6 +431,30 @@ impl FlowRadAccumulator {
         self.distance = (metres >= 0.0 && metres.is_finite()).then_some((metres, sampled_at_us));
     }
 
+    /// The OPTICAL_FLOW reading of `reading` (a readout of this accumulator) in this
+    /// accumulator's camera: both messages from the same integration.
+    ///
+    /// ```
+    /// use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator,
+    ///     Homography, ModelKind};
+    /// let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0)).unwrap();
+    /// let mut acc = FlowRadAccumulator::new(camera, 0);
+    /// let motion = EgoMotion {
+    ///     model: Homography::translation(1.5, -0.5).unwrap(),
+    ///     quality: 150,
+    ///     ..EgoMotion::failed(ModelKind::Translation, EgoStatus::Ok)
+    /// };
+    /// acc.add(&motion, 10_000, None);
+    /// let rad = acc.readout(10_000);
+    /// let flow = acc.optical_flow(&rad);
+    /// assert_eq!((flow.flow_x, flow.flow_y, flow.quality), (15, -5, rad.quality));
+    /// assert!((flow.flow_rate_x - rad.integrated_x * 100.0).abs() < 1e-5);
+    /// ```
+    pub fn optical_flow(&self, reading: &OpticalFlowRad) -> OpticalFlow {
+        let params = self.camera.params();
+        OpticalFlow::from_rad(reading, (params.focal_x, params.focal_y))
+    }
+
     /// Frame pairs added since the last readout.
     ///
     /// ```
@@ -400,6 +573,77 @@ mod tests {
             let flow = acc.readout(0);
             assert_eq!((flow.quality, flow.integrated_x), (0, 0.0));
         }
+    }
+
+    #[test]
+    fn optical_flow_carries_the_same_integration() {
+        let mut acc = accumulator();
+        acc.set_distance(1.5, 0);
+        let shift = EgoMotion {
+            model: Homography::translation(0.65, -0.42).unwrap(),
+            ..motion(180)
+        };
+        acc.add(&shift, 10_000, Some([0.001, -0.002, 0.0]));
+        let rad = acc.readout(10_000);
+        let flow = acc.optical_flow(&rad);
+        assert_eq!(
+            (flow.time_usec, flow.sensor_id, flow.quality),
+            (10_000, 7, 180)
+        );
+        assert_eq!((flow.flow_x, flow.flow_y), (7, -4)); // 6.5 and -4.2 dpix
+        assert!((flow.flow_rate_x - rad.integrated_x / 0.01).abs() < 1e-6);
+        assert!((flow.flow_rate_y - rad.integrated_y / 0.01).abs() < 1e-6);
+        let comp_x = (rad.integrated_x - 0.001) / 0.01 * 1.5;
+        assert!((flow.flow_comp_m_x - comp_x).abs() < 1e-5);
+        assert_eq!(flow.ground_distance, Some(1.5));
+    }
+
+    #[test]
+    fn optical_flow_of_a_spoilt_or_absurd_reading_has_no_flow() {
+        let good = OpticalFlowRad {
+            integration_time_us: 10_000,
+            integrated_x: 0.01,
+            quality: 100,
+            ..Default::default()
+        };
+        for broken in [
+            OpticalFlowRad { quality: 0, ..good },
+            OpticalFlowRad {
+                integration_time_us: 0,
+                ..good
+            },
+            OpticalFlowRad {
+                integrated_y: f32::INFINITY,
+                ..good
+            },
+        ] {
+            let flow = OpticalFlow::from_rad(&broken, (100.0, 100.0));
+            assert_eq!(
+                (flow.quality, flow.flow_x, flow.flow_rate_x),
+                (0, 0, 0.0),
+                "{broken:?}"
+            );
+        }
+        // A NaN gyro spoils only the speed over the ground, which becomes unknown.
+        let no_gyro = OpticalFlowRad {
+            distance: Some(2.0),
+            integrated_xgyro: Some(f32::NAN),
+            integrated_ygyro: Some(0.0),
+            ..good
+        };
+        let flow = OpticalFlow::from_rad(&no_gyro, (100.0, 100.0));
+        assert_eq!(
+            (flow.quality, flow.flow_x, flow.flow_comp_m_x),
+            (100, 10, 0.0)
+        );
+        // A finite but huge displacement saturates the deci-pixels; the rate stays true.
+        let fast = OpticalFlowRad {
+            integrated_x: 1.5,
+            ..good
+        };
+        let flow = OpticalFlow::from_rad(&fast, (1000.0, 1000.0));
+        assert_eq!((flow.flow_x, flow.quality), (i16::MAX, 100));
+        assert!((flow.flow_rate_x - 150.0).abs() < 1e-3);
     }
 
     #[test]

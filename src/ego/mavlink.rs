@@ -1,8 +1,45 @@
-//! MAVLink 2 frames of OPTICAL_FLOW_RAD (feature `mavlink`), serialised by the `mavlink` crate.
+//! MAVLink 2 frames of a flow sensor (feature `mavlink`): OPTICAL_FLOW_RAD, OPTICAL_FLOW and
+//! HEARTBEAT, serialised by the `mavlink` crate.
 //!
-//! Only the OPTICAL_FLOW_RAD serialiser and the frame's CRC are linked in. The frame is built
-//! in a 280-byte buffer on the stack (the `mavlink` crate's largest frame) and copied into the
-//! caller's buffer; [`MAX_FRAME_LEN`] bytes always suffice.
+//! Only these serialisers and the frame's CRC are linked in. A frame is built in a 280-byte
+//! buffer on the stack (the `mavlink` crate's largest frame) and copied into the caller's
+//! buffer; [`MAX_FRAME_LEN`] bytes always suffice.
+//!
+//! # What the autopilots read
+//!
+//! Send both flow messages of each readout, made from the same integration
+//! ([`FlowRadAccumulator::readout`] then [`FlowRadAccumulator::optical_flow`]):
+//!
+//! - **PX4** reads OPTICAL_FLOW_RAD only. It stamps each message on arrival and takes
+//!   `integration_time_us` as the integration span, so readouts must be sent as soon as they are
+//!   made (`EKF2_OF_DELAY` covers the delay to the middle of the interval); `time_usec` is not
+//!   used to align them. EKF2 fuses a reading only when `quality` reaches `EKF2_OF_QMIN` (0 is
+//!   never used) and the flow rate stays within `SENS_FLOW_MAXR` (8 rad/s by default); it
+//!   subtracts the integrated gyro itself, or its own gyro when the fields are NaN.
+//! - **ArduPilot** (`FLOW_TYPE` 5) reads OPTICAL_FLOW; its OPTICAL_FLOW_RAD handler is left out
+//!   of builds for boards with 2 MB of flash or less. It averages `flow_rate_x/y` (or, from
+//!   sensors that never fill them, `flow_x/y`) over the messages between its own updates, timed
+//!   by their arrival, so the messages must come at a steady rate, less than 0.5 s apart. It
+//!   uses its own gyro for the body rates. EKF3 drops a reading outright when its quality is
+//!   0 or its flow rate (or the gyro's) reaches 4.2 rad/s in magnitude, and fuses only rates
+//!   below `EK3_MAX_FLOW` (2.5 rad/s by default, settable up to 4.0).
+//!
+//! The library does not clamp rates to those limits: a rate beyond them is a true measurement
+//! that the autopilot should reject, not a smaller one it would trust. What never reaches the
+//! wire is a NaN or infinite flow: such a reading is sent with zero flow and quality 0.
+//!
+//! # Who is sending
+//!
+//! MAVLink's common set has no component type for a flow sensor. The HEARTBEAT says
+//! [`MAV_TYPE_CAMERA`] (the sensor is a camera; the field is meant for "camera, gimbal, etc."
+//! components) with [`MAV_AUTOPILOT_INVALID`] (not a flight controller), and the frames come from
+//! [`FLOW_SENSOR_COMPONENT_ID`], MAV_COMP_ID_CAMERA (100), the id PX4FLOW-style sensors use.
+//! Neither autopilot filters flow by component id (ArduPilot follows the first sender it hears),
+//! so a vehicle that already has a camera at 100 can pick any free id in [`MavlinkHeader`].
+//! The system id is the vehicle's (usually 1).
+//!
+//! [`FlowRadAccumulator::readout`]: super::FlowRadAccumulator::readout
+//! [`FlowRadAccumulator::optical_flow`]: super::FlowRadAccumulator::optical_flow
 //!
 //! ```
 //! use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
@@ -16,8 +53,11 @@
 //! assert!(len <= MAX_FRAME_LEN);
 //! ```
 
-use super::flow_rad::OpticalFlowRad;
-use mavlink::dialects::common::OPTICAL_FLOW_RAD_DATA;
+use super::flow_rad::{OpticalFlow, OpticalFlowRad};
+use mavlink::dialects::common::{
+    MavAutopilot, MavModeFlag, MavState, MavType, HEARTBEAT_DATA, OPTICAL_FLOW_DATA,
+    OPTICAL_FLOW_RAD_DATA,
+};
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 
 /// OPTICAL_FLOW_RAD's message id.
@@ -28,8 +68,49 @@ use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 /// ```
 pub const OPTICAL_FLOW_RAD_ID: u32 = 106;
 
-/// The longest OPTICAL_FLOW_RAD frame: 10 header bytes, a 44-byte payload, 2 CRC bytes
-/// (unsigned; MAVLink 2 trims trailing zero bytes of the payload, so frames are often shorter).
+/// OPTICAL_FLOW's message id.
+///
+/// ```
+/// use kestrel::ego::mavlink::OPTICAL_FLOW_ID;
+/// assert_eq!(OPTICAL_FLOW_ID, 100);
+/// ```
+pub const OPTICAL_FLOW_ID: u32 = 100;
+
+/// HEARTBEAT's message id.
+///
+/// ```
+/// use kestrel::ego::mavlink::HEARTBEAT_ID;
+/// assert_eq!(HEARTBEAT_ID, 0);
+/// ```
+pub const HEARTBEAT_ID: u32 = 0;
+
+/// The byte OPTICAL_FLOW_RAD's CRC ends with (CRC_EXTRA, from the message's definition).
+///
+/// ```
+/// use kestrel::ego::mavlink::OPTICAL_FLOW_RAD_CRC_EXTRA;
+/// assert_eq!(OPTICAL_FLOW_RAD_CRC_EXTRA, 138);
+/// ```
+pub const OPTICAL_FLOW_RAD_CRC_EXTRA: u8 = 138;
+
+/// The byte OPTICAL_FLOW's CRC ends with (CRC_EXTRA; extension fields do not change it).
+///
+/// ```
+/// use kestrel::ego::mavlink::OPTICAL_FLOW_CRC_EXTRA;
+/// assert_eq!(OPTICAL_FLOW_CRC_EXTRA, 175);
+/// ```
+pub const OPTICAL_FLOW_CRC_EXTRA: u8 = 175;
+
+/// The byte HEARTBEAT's CRC ends with (CRC_EXTRA).
+///
+/// ```
+/// use kestrel::ego::mavlink::HEARTBEAT_CRC_EXTRA;
+/// assert_eq!(HEARTBEAT_CRC_EXTRA, 50);
+/// ```
+pub const HEARTBEAT_CRC_EXTRA: u8 = 50;
+
+/// The longest frame of the three: OPTICAL_FLOW_RAD's, 10 header bytes, a 44-byte payload and
+/// 2 CRC bytes (unsigned; MAVLink 2 trims trailing zero bytes of the payload, so frames are
+/// often shorter). OPTICAL_FLOW takes at most 46 bytes, HEARTBEAT 21.
 ///
 /// ```
 /// use kestrel::ego::mavlink::MAX_FRAME_LEN;
@@ -37,6 +118,31 @@ pub const OPTICAL_FLOW_RAD_ID: u32 = 106;
 /// assert_eq!(MAX_FRAME_LEN, 10 + 44 + 2);
 /// ```
 pub const MAX_FRAME_LEN: usize = 56;
+
+/// The component id a flow sensor sends from: MAV_COMP_ID_CAMERA (see the module page).
+///
+/// ```
+/// use kestrel::ego::mavlink::FLOW_SENSOR_COMPONENT_ID;
+/// assert_eq!(FLOW_SENSOR_COMPONENT_ID, 100);
+/// ```
+pub const FLOW_SENSOR_COMPONENT_ID: u8 = 100;
+
+/// The HEARTBEAT's `type`: MAV_TYPE_CAMERA.
+///
+/// ```
+/// use kestrel::ego::mavlink::MAV_TYPE_CAMERA;
+/// assert_eq!(MAV_TYPE_CAMERA, 30);
+/// ```
+pub const MAV_TYPE_CAMERA: u8 = 30;
+
+/// The HEARTBEAT's `autopilot`: MAV_AUTOPILOT_INVALID, a component that is not a flight
+/// controller.
+///
+/// ```
+/// use kestrel::ego::mavlink::MAV_AUTOPILOT_INVALID;
+/// assert_eq!(MAV_AUTOPILOT_INVALID, 8);
+/// ```
+pub const MAV_AUTOPILOT_INVALID: u8 = 8;
 
 /// The sender fields of a MAVLink frame header.
 ///
@@ -50,10 +156,42 @@ pub const MAX_FRAME_LEN: usize = 56;
 pub struct MavlinkHeader {
     /// The sending system (the vehicle), usually 1.
     pub system_id: u8,
-    /// The sending component; MAV_COMP_ID_CAMERA is 100.
+    /// The sending component; [`FLOW_SENSOR_COMPONENT_ID`] for a flow sensor.
     pub component_id: u8,
     /// Frame sequence number, incremented by the sender per frame.
     pub sequence: u8,
+}
+
+impl MavlinkHeader {
+    /// A flow sensor's header on system `system_id`, sequence 0.
+    ///
+    /// ```
+    /// use kestrel::ego::mavlink::MavlinkHeader;
+    /// let header = MavlinkHeader::flow_sensor(1);
+    /// assert_eq!((header.system_id, header.component_id, header.sequence), (1, 100, 0));
+    /// ```
+    pub const fn flow_sensor(system_id: u8) -> Self {
+        Self {
+            system_id,
+            component_id: FLOW_SENSOR_COMPONENT_ID,
+            sequence: 0,
+        }
+    }
+
+    /// The header of the next frame: this one, after which the sequence counts up (wrapping).
+    /// One counter per link: every frame sent on it takes the next number, whatever its type.
+    ///
+    /// ```
+    /// use kestrel::ego::mavlink::MavlinkHeader;
+    /// let mut link = MavlinkHeader { system_id: 1, component_id: 100, sequence: 255 };
+    /// assert_eq!(link.advance().sequence, 255);
+    /// assert_eq!(link.advance().sequence, 0);
+    /// ```
+    pub fn advance(&mut self) -> Self {
+        let current = *self;
+        self.sequence = self.sequence.wrapping_add(1);
+        current
+    }
 }
 
 /// Why a frame could not be encoded.
@@ -79,7 +217,8 @@ impl core::fmt::Display for EncodeError {
 }
 
 /// Writes `flow` as an unsigned MAVLink 2 OPTICAL_FLOW_RAD frame at the start of `buf` and
-/// returns its length. A missing gyro is sent as NaN, an unknown distance as -1.
+/// returns its length. A missing gyro is sent as NaN (MAVLink's "no gyro", which PX4 reads as
+/// "use mine"), an unknown distance as -1.
 ///
 /// ```
 /// use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
@@ -111,13 +250,81 @@ pub fn encode_optical_flow_rad(
         quality: flow.quality,
     };
     debug_assert_eq!(OPTICAL_FLOW_RAD_DATA::ID, OPTICAL_FLOW_RAD_ID);
+    encode(header, &data, buf)
+}
+
+/// Writes `flow` as an unsigned MAVLink 2 OPTICAL_FLOW frame, with its extension fields
+/// `flow_rate_x/y`, at the start of `buf` and returns its length. An unknown ground distance
+/// is sent as -1.
+///
+/// ```
+/// use kestrel::ego::mavlink::{encode_optical_flow, MavlinkHeader, MAX_FRAME_LEN};
+/// use kestrel::ego::OpticalFlow;
+/// let flow = OpticalFlow { flow_x: 7, flow_rate_x: 0.5, flow_rate_y: -0.25, quality: 150,
+///     ..Default::default() };
+/// let mut buf = [0u8; MAX_FRAME_LEN];
+/// let len = encode_optical_flow(&flow, MavlinkHeader::flow_sensor(1), &mut buf).unwrap();
+/// assert_eq!((len, buf[1], buf[7]), (46, 34, 100)); // length, payload, message id
+/// ```
+pub fn encode_optical_flow(
+    flow: &OpticalFlow,
+    header: MavlinkHeader,
+    buf: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let data = OPTICAL_FLOW_DATA {
+        time_usec: flow.time_usec,
+        flow_comp_m_x: flow.flow_comp_m_x,
+        flow_comp_m_y: flow.flow_comp_m_y,
+        ground_distance: flow.wire_ground_distance(),
+        flow_x: flow.flow_x,
+        flow_y: flow.flow_y,
+        sensor_id: flow.sensor_id,
+        quality: flow.quality,
+        flow_rate_x: flow.flow_rate_x,
+        flow_rate_y: flow.flow_rate_y,
+    };
+    debug_assert_eq!(OPTICAL_FLOW_DATA::ID, OPTICAL_FLOW_ID);
+    encode(header, &data, buf)
+}
+
+/// Writes a flow sensor's unsigned MAVLink 2 HEARTBEAT frame at the start of `buf` and returns
+/// its length: type [`MAV_TYPE_CAMERA`], autopilot [`MAV_AUTOPILOT_INVALID`], no mode flags,
+/// state MAV_STATE_ACTIVE. Send it once a second: ground stations and routers list a component
+/// only while its heartbeats keep coming.
+///
+/// ```
+/// use kestrel::ego::mavlink::{encode_heartbeat, MavlinkHeader, MAX_FRAME_LEN};
+/// let mut buf = [0u8; MAX_FRAME_LEN];
+/// let len = encode_heartbeat(MavlinkHeader::flow_sensor(1), &mut buf).unwrap();
+/// assert_eq!((len, buf[7]), (21, 0)); // 9-byte payload, message id 0
+/// assert_eq!(&buf[14..19], &[30, 8, 0, 4, 3]); // type, autopilot, mode, state, version
+/// ```
+pub fn encode_heartbeat(header: MavlinkHeader, buf: &mut [u8]) -> Result<usize, EncodeError> {
+    let data = HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_CAMERA,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: mavlink::dialects::common::MINOR_MAVLINK_VERSION,
+    };
+    debug_assert_eq!(HEARTBEAT_DATA::ID, HEARTBEAT_ID);
+    encode(header, &data, buf)
+}
+
+/// Serialises `data` as a MAVLink 2 frame and copies it into `buf`.
+fn encode<D: MessageData>(
+    header: MavlinkHeader,
+    data: &D,
+    buf: &mut [u8],
+) -> Result<usize, EncodeError> {
     let mut raw = MAVLinkV2MessageRaw::new();
     let header = MavHeader {
         system_id: header.system_id,
         component_id: header.component_id,
         sequence: header.sequence,
     };
-    raw.serialize_message_data(header, &data);
+    raw.serialize_message_data(header, data);
     let frame = raw.raw_bytes();
     let out = buf
         .get_mut(..frame.len())
@@ -144,17 +351,53 @@ mod tests {
         crc
     }
 
-    /// Parses a frame with the `mavlink` crate, after checking its CRC.
-    fn decode(frame: &[u8]) -> OPTICAL_FLOW_RAD_DATA {
+    /// Checks a frame's CRC against the given CRC_EXTRA, then parses it with the `mavlink`
+    /// crate (which checks the CRC with its own table).
+    fn decode(frame: &[u8], crc_extra: u8) -> MavMessage {
+        let len = frame.len();
+        let crc = crc_mcrf4xx(&frame[1..len - 2], crc_extra);
+        assert_eq!(crc.to_le_bytes(), [frame[len - 2], frame[len - 1]]);
         let mut bytes = [0u8; 280];
-        bytes[..frame.len()].copy_from_slice(frame);
+        bytes[..len].copy_from_slice(frame);
         let raw = MAVLinkV2MessageRaw::from_bytes_unparsed(bytes);
         assert!(raw.has_valid_crc::<MavMessage>());
-        assert_eq!(raw.message_id(), OPTICAL_FLOW_RAD_ID);
-        match MavMessage::parse(MavlinkVersion::V2, raw.message_id(), raw.payload()).unwrap() {
+        MavMessage::parse(MavlinkVersion::V2, raw.message_id(), raw.payload()).unwrap()
+    }
+
+    fn decode_rad(frame: &[u8]) -> OPTICAL_FLOW_RAD_DATA {
+        match decode(frame, OPTICAL_FLOW_RAD_CRC_EXTRA) {
             MavMessage::OPTICAL_FLOW_RAD(data) => data,
             other => panic!("decoded {}", other.message_name()),
         }
+    }
+
+    fn decode_flow(frame: &[u8]) -> OPTICAL_FLOW_DATA {
+        match decode(frame, OPTICAL_FLOW_CRC_EXTRA) {
+            MavMessage::OPTICAL_FLOW(data) => data,
+            other => panic!("decoded {}", other.message_name()),
+        }
+    }
+
+    const HEADER: MavlinkHeader = MavlinkHeader {
+        system_id: 1,
+        component_id: 100,
+        sequence: 42,
+    };
+
+    #[test]
+    fn the_crate_agrees_on_ids_and_crc_extras() {
+        assert_eq!(
+            (OPTICAL_FLOW_RAD_DATA::ID, OPTICAL_FLOW_RAD_DATA::EXTRA_CRC),
+            (OPTICAL_FLOW_RAD_ID, OPTICAL_FLOW_RAD_CRC_EXTRA)
+        );
+        assert_eq!(
+            (OPTICAL_FLOW_DATA::ID, OPTICAL_FLOW_DATA::EXTRA_CRC),
+            (OPTICAL_FLOW_ID, OPTICAL_FLOW_CRC_EXTRA)
+        );
+        assert_eq!(
+            (HEARTBEAT_DATA::ID, HEARTBEAT_DATA::EXTRA_CRC),
+            (HEARTBEAT_ID, HEARTBEAT_CRC_EXTRA)
+        );
     }
 
     #[test]
@@ -173,20 +416,13 @@ mod tests {
             time_delta_distance_us: 1_500,
             distance: Some(2.25),
         };
-        let header = MavlinkHeader {
-            system_id: 1,
-            component_id: 100,
-            sequence: 42,
-        };
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let len = encode_optical_flow_rad(&flow, header, &mut buf).unwrap();
+        let len = encode_optical_flow_rad(&flow, HEADER, &mut buf).unwrap();
         assert_eq!(len, MAX_FRAME_LEN);
         // Magic, payload length, flags, sequence, system, component, message id.
         assert_eq!(buf[..10], [0xFD, 44, 0, 0, 42, 1, 100, 106, 0, 0]);
-        let crc = crc_mcrf4xx(&buf[1..len - 2], 138);
-        assert_eq!(crc.to_le_bytes(), [buf[len - 2], buf[len - 1]]);
 
-        let data = decode(&buf[..len]);
+        let data = decode_rad(&buf[..len]);
         assert_eq!(data.time_usec, 123_456_789);
         assert_eq!(
             (data.sensor_id, data.quality, data.temperature),
@@ -209,17 +445,91 @@ mod tests {
             time_usec: 7,
             ..Default::default()
         };
-        let header = MavlinkHeader {
-            system_id: 1,
-            component_id: 100,
-            sequence: 0,
-        };
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let len = encode_optical_flow_rad(&flow, header, &mut buf).unwrap();
+        let len = encode_optical_flow_rad(&flow, HEADER, &mut buf).unwrap();
         // Temperature, sensor id and quality are zero: MAVLink 2 trims them off the payload.
         assert_eq!((len, buf[1]), (MAX_FRAME_LEN - 4, 40));
-        let data = decode(&buf[..len]);
+        let data = decode_rad(&buf[..len]);
         assert!(data.integrated_xgyro.is_nan() && data.integrated_zgyro.is_nan());
         assert_eq!((data.distance, data.quality), (-1.0, 0));
+    }
+
+    #[test]
+    fn optical_flow_round_trips_with_its_extension_fields() {
+        let flow = OpticalFlow {
+            time_usec: 987_654_321,
+            sensor_id: 2,
+            flow_x: -123,
+            flow_y: 456,
+            flow_comp_m_x: 0.75,
+            flow_comp_m_y: -1.5,
+            quality: 77,
+            ground_distance: Some(3.5),
+            flow_rate_x: -1.25,
+            flow_rate_y: 2.5,
+        };
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let len = encode_optical_flow(&flow, HEADER, &mut buf).unwrap();
+        assert_eq!(buf[..10], [0xFD, 34, 0, 0, 42, 1, 100, 100, 0, 0]);
+        assert_eq!(len, 10 + 34 + 2);
+        // The wire order: time, comp x/y, distance, flow x/y, sensor, quality, rates.
+        assert_eq!(buf[10..18], 987_654_321u64.to_le_bytes());
+        assert_eq!(buf[30..32], (-123i16).to_le_bytes());
+        assert_eq!(buf[36..40], (-1.25f32).to_le_bytes());
+        let data = decode_flow(&buf[..len]);
+        assert_eq!(
+            (data.time_usec, data.sensor_id, data.quality),
+            (987_654_321, 2, 77)
+        );
+        assert_eq!((data.flow_x, data.flow_y), (-123, 456));
+        assert_eq!((data.flow_comp_m_x, data.flow_comp_m_y), (0.75, -1.5));
+        assert_eq!(data.ground_distance, 3.5);
+        assert_eq!((data.flow_rate_x, data.flow_rate_y), (-1.25, 2.5));
+    }
+
+    #[test]
+    fn an_empty_optical_flow_is_trimmed_and_says_distance_unknown() {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let len = encode_optical_flow(&OpticalFlow::default(), HEADER, &mut buf).unwrap();
+        // Everything after the distance is zero: trimmed to time, comp x/y and distance.
+        assert_eq!((len, buf[1]), (10 + 20 + 2, 20));
+        let data = decode_flow(&buf[..len]);
+        assert_eq!(
+            (data.ground_distance, data.quality, data.flow_rate_x),
+            (-1.0, 0, 0.0)
+        );
+    }
+
+    #[test]
+    fn heartbeat_names_a_camera_that_is_not_an_autopilot() {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let len = encode_heartbeat(HEADER, &mut buf).unwrap();
+        assert_eq!(buf[..10], [0xFD, 9, 0, 0, 42, 1, 100, 0, 0, 0]);
+        match decode(&buf[..len], HEARTBEAT_CRC_EXTRA) {
+            MavMessage::HEARTBEAT(data) => {
+                assert_eq!(data.mavtype as u8, MAV_TYPE_CAMERA);
+                assert_eq!(data.autopilot as u8, MAV_AUTOPILOT_INVALID);
+                assert_eq!(data.system_status, MavState::MAV_STATE_ACTIVE);
+                assert_eq!((data.custom_mode, data.mavlink_version), (0, 3));
+            }
+            other => panic!("decoded {}", other.message_name()),
+        }
+    }
+
+    #[test]
+    fn every_encoder_refuses_a_short_buffer() {
+        let mut short = [0u8; 20];
+        assert_eq!(
+            encode_heartbeat(HEADER, &mut short),
+            Err(EncodeError::BufferTooSmall)
+        );
+        let flow = OpticalFlow {
+            quality: 1,
+            ..Default::default()
+        };
+        assert_eq!(
+            encode_optical_flow(&flow, HEADER, &mut short),
+            Err(EncodeError::BufferTooSmall)
+        );
     }
 }

@@ -9,8 +9,10 @@
 //! 3. [`rotation`] and [`camera`]: gyro rotations in PX4's sensor frame, a pinhole camera with
 //!    radial distortion, and derotation: the rotational flow a gyro predicts, to seed LK in fast
 //!    turns and to remove from the measured flow.
-//! 4. [`flow_rad`]: the MAVLink OPTICAL_FLOW_RAD accumulator, with PX4's sign conventions.
-//! 5. `mavlink` (feature `mavlink`): OPTICAL_FLOW_RAD as MAVLink 2 frames.
+//! 4. [`flow_rad`]: the MAVLink OPTICAL_FLOW_RAD accumulator, with PX4's sign conventions, and
+//!    the OPTICAL_FLOW reading of the same integration (ArduPilot's message).
+//! 5. `mavlink` (feature `mavlink`): OPTICAL_FLOW_RAD, OPTICAL_FLOW and HEARTBEAT as MAVLink 2
+//!    frames, and what PX4 and ArduPilot expect of them.
 //!
 //! Model fitting is `f32`: a frame has at most a few hundred tracks and the Cortex-M4F has a
 //! single-precision FPU. Inputs are validated (NaN, infinities and absurd values are rejected
@@ -51,7 +53,7 @@ pub mod ransac;
 pub mod rotation;
 
 pub use camera::{Camera, CameraError, CameraParams};
-pub use flow_rad::{FlowRadAccumulator, OpticalFlowRad};
+pub use flow_rad::{FlowRadAccumulator, OpticalFlow, OpticalFlowRad};
 pub use model::{fit, Correspondence, FitError, Homography, ModelKind};
 pub use ransac::{EgoMotion, EgoStatus, Ransac, RansacError, RansacParams, DEFAULT_SEED};
 pub use rotation::{GyroError, Rotation, MAX_BODY_RATE, MAX_ROTATION};

@@ -7,12 +7,14 @@ use kestrel::ego::ModelKind;
 
 use super::args::{parse, Flag, Matches, Parsed, Rule, UsageError};
 use crate::commands::egomotion::EgomotionOptions;
-use crate::egomotion::{EstimatorSettings, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD};
+use crate::egomotion::{
+    EstimatorSettings, MavlinkDestination, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
+};
 
 /// The usage text of `host-sim egomotion --help`.
 pub const USAGE: &str = "\
 host-sim egomotion: the camera's motion between consecutive frames, and the autopilot's
-OPTICAL_FLOW_RAD stream.
+MAVLink stream.
 
 Usage: host-sim egomotion INPUT --out ego.csv [options]
 
@@ -33,8 +35,15 @@ Options:
                     (frame k at k / fps s), body rates in rad/s about the sensor axes (X to the
                     top of the image, Y to its right, Z along the optical axis), linear between
                     samples. Intervals the log does not cover have no gyro reading.
-  --mavlink OUT.bin MAVLink 2 OPTICAL_FLOW_RAD frames (id 106), one per frame pair, back to
-                    back as raw bytes; system 1, component 100, sequence from 0
+  --mavlink DEST    MAVLink 2 stream: per frame pair OPTICAL_FLOW_RAD (id 106, read by PX4)
+                    and OPTICAL_FLOW (id 100, read by ArduPilot), after a HEARTBEAT at each
+                    new second of the frame clock; system 1, component 100, one sequence
+                    from 0. DEST is a file (raw bytes, back to back) or udp:HOST:PORT
+                    (datagrams to a listener, like MAVProxy's or QGroundControl's udpout; a
+                    listener that is missing or stops costs nothing, failed sends are counted
+                    on stderr at the end)
+  --rate HZ         pace the replay in real time at HZ frame pairs per second, 0.1 to 10000
+                    [default: as fast as it can]
   --fps F           frame rate, 1 to 10000 [default: the y4m header's, else 30]
   --max-points N    points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]
   --window N        LK window side, odd, 3 to 63 [default: 21; 7 with --preset flow-sensor]
@@ -76,6 +85,7 @@ const FLAGS: &[Flag] = &[
     Flag::value("--focal"),
     Flag::value("--gyro"),
     Flag::value("--mavlink"),
+    Flag::value("--rate"),
     Flag::value("--fps"),
     Flag::value("--max-points"),
     Flag::value("--preset"),
@@ -93,6 +103,10 @@ const FOCAL: Rule<f64> = Rule {
 pub(crate) const FPS: Rule<f64> = Rule {
     accepts: |f| (1.0..=10_000.0).contains(&f),
     says: "must be between 1 and 10000 frames per second",
+};
+const RATE: Rule<f64> = Rule {
+    accepts: |r| (0.1..=10_000.0).contains(&r),
+    says: "must be between 0.1 and 10000 frame pairs per second",
 };
 pub(crate) const THRESHOLD: Rule<f64> = Rule {
     accepts: |t| (0.05..=100.0).contains(&t),
@@ -137,10 +151,25 @@ fn options(matches: &Matches) -> Result<EgomotionOptions, UsageError> {
         out,
         settings,
         gyro: matches.path("--gyro"),
-        mavlink: matches.path("--mavlink"),
+        mavlink: mavlink(matches)?,
+        rate: match matches.value("--rate") {
+            Some(_) => Some(matches.number("--rate", 0.0, RATE)?),
+            None => None,
+        },
         fps: optional_fps(matches)?,
         stats: matches.path("--stats"),
     })
+}
+
+/// `--mavlink`: a file path, or `udp:HOST:PORT`.
+fn mavlink(matches: &Matches) -> Result<Option<MavlinkDestination>, UsageError> {
+    match matches.value("--mavlink") {
+        None => Ok(None),
+        Some(text) if text.is_empty() => Err(UsageError::new("--mavlink", "must not be empty")),
+        Some(text) => MavlinkDestination::parse(text)
+            .map(Some)
+            .map_err(|problem| UsageError::new("--mavlink", problem)),
+    }
 }
 
 /// The settings `egomotion` and `stabilize` share: `--max-points` and `--threshold`.
@@ -210,8 +239,8 @@ mod tests {
         assert_eq!(options.input, OsString::from("clip.y4m"));
         assert_eq!(options.settings, EstimatorSettings::default());
         assert_eq!(
-            (options.gyro, options.mavlink, options.fps),
-            (None, None, None)
+            (options.gyro, options.mavlink, options.fps, options.rate),
+            (None, None, None, None)
         );
     }
 
@@ -251,6 +280,23 @@ mod tests {
         );
         assert_eq!(narrower.settings.lk.template, sensor.lk.template);
         assert!(options.gyro.is_some() && options.mavlink.is_some() && options.stats.is_some());
+    }
+
+    #[test]
+    fn mavlink_takes_a_file_or_a_udp_listener() {
+        let file = parsed("d --out e.csv --mavlink m.bin").unwrap().unwrap();
+        assert_eq!(file.mavlink, Some(MavlinkDestination::File("m.bin".into())));
+        let udp = parsed("d --out e.csv --mavlink udp:localhost:14550 --rate 30")
+            .unwrap()
+            .unwrap();
+        let expected = MavlinkDestination::Udp {
+            host: "localhost".into(),
+            port: 14550,
+        };
+        assert_eq!((udp.mavlink, udp.rate), (Some(expected), Some(30.0)));
+        assert!(error("d --out e.csv --mavlink udp:").starts_with("--mavlink: a UDP destination"));
+        assert!(error("d --out e.csv --mavlink udp:host:0").starts_with("--mavlink: the port"));
+        assert!(error("d --out e.csv --rate 0").starts_with("--rate: must be between"));
     }
 
     #[test]

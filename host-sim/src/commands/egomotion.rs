@@ -1,9 +1,9 @@
 //! `host-sim egomotion`: the camera's motion between consecutive frames, and the autopilot's
-//! OPTICAL_FLOW_RAD stream.
+//! MAVLink stream.
 //!
-//! Each frame pair gets one row of `ego.csv` and, with `--mavlink`, one MAVLink 2 frame: the
-//! flow accumulator is read out after every pair, so each message integrates exactly one frame
-//! interval. A pair whose fit fails gets the identity homography, zero inliers and quality 0
+//! Each frame pair gets one row of `ego.csv` and, with `--mavlink`, one OPTICAL_FLOW_RAD and one
+//! OPTICAL_FLOW message (see [`crate::egomotion::MavlinkLink`]): the flow accumulator is read out
+//! after every pair, so each message integrates exactly one frame interval. A pair whose fit fails gets the identity homography, zero inliers and quality 0
 //! (the library's convention: no motion is claimed), never a stale model.
 
 use std::ffi::OsString;
@@ -11,11 +11,13 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
-use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlowRad, Rotation};
+use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlow, OpticalFlowRad, Rotation};
 
 use super::CommandError;
-use crate::egomotion::{EstimatorSettings, FrameClock, GyroLog, MotionEstimator, PairMotion};
+use crate::egomotion::{
+    EstimatorSettings, FrameClock, GyroLog, MavlinkDestination, MavlinkLink, MotionEstimator,
+    Pacer, PairMotion, SendFailures,
+};
 use crate::io::csv::CsvWriter;
 use crate::io::json::JsonObject;
 use crate::io::{AtomicFile, FrameSource, Progress};
@@ -42,10 +44,6 @@ pub const COLUMNS: [&str; 17] = [
     "status",
 ];
 
-/// MAVLink sender: system 1 (the vehicle), component 100 (MAV_COMP_ID_CAMERA).
-const SYSTEM_ID: u8 = 1;
-const COMPONENT_ID: u8 = 100;
-
 /// Everything `egomotion` needs, validated by the command line.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EgomotionOptions {
@@ -57,8 +55,10 @@ pub struct EgomotionOptions {
     pub settings: EstimatorSettings,
     /// Gyro log, if any.
     pub gyro: Option<PathBuf>,
-    /// Where to write the MAVLink frames, if anywhere.
-    pub mavlink: Option<PathBuf>,
+    /// Where to send the MAVLink stream, if anywhere.
+    pub mavlink: Option<MavlinkDestination>,
+    /// Frame pairs per second to pace the replay at; as fast as it can without.
+    pub rate: Option<f64>,
     /// Frame rate given on the command line; otherwise the input's, otherwise 30.
     pub fps: Option<f64>,
     /// Where to write the timing summary, if anywhere.
@@ -74,6 +74,10 @@ pub struct PairReport {
     pub pair: PairMotion,
     /// The autopilot reading for the pair's interval.
     pub reading: OpticalFlowRad,
+    /// The same reading as OPTICAL_FLOW.
+    pub flow: OpticalFlow,
+    /// When the pair's later frame was taken, microseconds on the frame clock.
+    pub time_us: u64,
     /// Why the reading is unusable, or `Ok`.
     pub status: PairStatus,
 }
@@ -115,8 +119,12 @@ pub fn run(options: &EgomotionOptions) -> Result<(), CommandError> {
         .unwrap_or(FrameClock::DEFAULT_FPS);
     let mut run = SequenceRun::new(options, FrameClock::new(fps), gyro);
     let mut progress = Progress::new("egomotion", source.frame_count());
+    let pacer = options.rate.map(Pacer::new);
     let mut failure = None;
     for (index, frame) in source.enumerate() {
+        if let Some(pacer) = &pacer {
+            pacer.wait(index);
+        }
         let step = frame
             .map_err(CommandError::from)
             .and_then(|frame| run.push(index, frame))
@@ -189,7 +197,9 @@ impl SequenceRun {
         self.tracked_total += pair.tracked;
 
         let flow_status = accumulator.add(&pair.motion, interval_us, gyro);
-        let reading = accumulator.readout(self.clock.time_us(index));
+        let time_us = self.clock.time_us(index);
+        let reading = accumulator.readout(time_us);
+        let flow = accumulator.optical_flow(&reading);
         let status = match (gyro, rotation) {
             (Some(_), None) => PairStatus::BadGyro,
             _ => PairStatus::Flow(flow_status),
@@ -198,6 +208,8 @@ impl SequenceRun {
             frame: index,
             pair,
             reading,
+            flow,
+            time_us,
             status,
         }))
     }
@@ -214,7 +226,7 @@ impl SequenceRun {
 /// The output files, open from the start.
 struct Outputs {
     csv: CsvWriter<AtomicFile>,
-    mavlink: Option<MavlinkStream>,
+    mavlink: Option<MavlinkLink>,
     stats: Option<AtomicFile>,
 }
 
@@ -223,10 +235,9 @@ impl Outputs {
         let out = AtomicFile::create(&options.out)?;
         let mavlink = options
             .mavlink
-            .as_deref()
-            .map(AtomicFile::create)
-            .transpose()?
-            .map(MavlinkStream::new);
+            .as_ref()
+            .map(MavlinkLink::open)
+            .transpose()?;
         let stats = options
             .stats
             .as_deref()
@@ -244,7 +255,7 @@ impl Outputs {
     fn write(&mut self, report: &PairReport) -> Result<(), CommandError> {
         write_row(&mut self.csv, report).map_err(|e| self.csv_error(&e))?;
         if let Some(mavlink) = &mut self.mavlink {
-            mavlink.send(&report.reading)?;
+            mavlink.send(report.time_us, &report.reading, &report.flow)?;
         }
         Ok(())
     }
@@ -262,10 +273,11 @@ impl Outputs {
                 .map_err(|e| stats.write_error(&e))?;
             stats.commit()?;
         }
-        if let Some(mavlink) = self.mavlink {
-            mavlink.file.commit()?;
-        }
+        let undelivered = self.mavlink.map(MavlinkLink::finish).transpose()?.flatten();
         self.csv.into_inner().commit()?;
+        if let Some((link, failures)) = undelivered {
+            report_send_failures(&link, &failures);
+        }
         Ok(())
     }
 }
@@ -331,32 +343,15 @@ fn write_row(csv: &mut CsvWriter<AtomicFile>, report: &PairReport) -> std::io::R
     ])
 }
 
-/// MAVLink 2 frames written back to back, with increasing (wrapping) sequence numbers.
-struct MavlinkStream {
-    file: AtomicFile,
-    sequence: u8,
-}
-
-impl MavlinkStream {
-    fn new(file: AtomicFile) -> Self {
-        Self { file, sequence: 0 }
-    }
-
-    fn send(&mut self, reading: &OpticalFlowRad) -> Result<(), CommandError> {
-        let header = MavlinkHeader {
-            system_id: SYSTEM_ID,
-            component_id: COMPONENT_ID,
-            sequence: self.sequence,
-        };
-        let mut frame = [0u8; MAX_FRAME_LEN];
-        let len = encode_optical_flow_rad(reading, header, &mut frame)
-            .map_err(|e| CommandError::Processing(format!("MAVLink: {e}")))?;
-        self.file
-            .write_all(&frame[..len])
-            .map_err(|e| self.file.write_error(&e))?;
-        self.sequence = self.sequence.wrapping_add(1);
-        Ok(())
-    }
+/// One stderr line for the datagrams a UDP link could not send: never an error, a listener
+/// may come and go.
+fn report_send_failures(link: &str, failures: &SendFailures) {
+    eprintln!(
+        "host-sim: {link}: {} of {} MAVLink datagrams could not be sent (last: {})",
+        failures.failed,
+        failures.attempted,
+        failures.last.as_deref().unwrap_or("unknown")
+    );
 }
 
 #[cfg(test)]

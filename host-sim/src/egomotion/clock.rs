@@ -39,3 +39,38 @@ impl FrameClock {
         u32::try_from(interval).unwrap_or(u32::MAX)
     }
 }
+
+/// Paces a replay in real time: frame `k` is let through `k / rate` seconds after the pacer
+/// started, so a slow frame is caught up on and never makes the stream run slow.
+///
+/// ```
+/// use host_sim::egomotion::Pacer;
+/// let pacer = Pacer::new(200.0);
+/// let start = std::time::Instant::now();
+/// pacer.wait(2);
+/// assert!(start.elapsed().as_secs_f64() >= 0.0099);
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Pacer {
+    start: std::time::Instant,
+    rate: f64,
+}
+
+impl Pacer {
+    /// A pacer at `rate` frames per second (positive and finite; the command line checks).
+    pub fn new(rate: f64) -> Self {
+        Self {
+            start: std::time::Instant::now(),
+            rate,
+        }
+    }
+
+    /// Sleeps until frame `k` is due.
+    pub fn wait(&self, k: usize) {
+        let due = self.start + std::time::Duration::from_secs_f64(k as f64 / self.rate);
+        let now = std::time::Instant::now();
+        if due > now {
+            std::thread::sleep(due - now);
+        }
+    }
+}

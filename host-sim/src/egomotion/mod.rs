@@ -1,6 +1,6 @@
 //! Camera motion over a frame sequence on the host: the library's detection, tracking and robust
-//! fitting per consecutive frame pair, gyro logs integrated over the frame intervals, and the
-//! clock that stamps the frames.
+//! fitting per consecutive frame pair, gyro logs integrated over the frame intervals, the
+//! clock that stamps the frames, and the MAVLink link the readings go out on.
 //!
 //! [`MotionEstimator`] is what `host-sim egomotion` and `host-sim stabilize` run per frame; it
 //! owns every buffer the library borrows, sized once for the sequence's frame size, as firmware
@@ -9,9 +9,11 @@
 mod clock;
 mod estimator;
 mod gyro;
+mod link;
 
-pub use clock::FrameClock;
+pub use clock::{FrameClock, Pacer};
 pub use estimator::{
     EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
 };
 pub use gyro::{GyroLog, GyroSample};
+pub use link::{MavlinkDestination, MavlinkLink, SendFailures};

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Kestrel's autopilot link on the emulated flight controller: builds the firmware (firmware/),
+# runs it on QEMU's STM32F405 with USART2 connected to a TCP port on the host, and checks every
+# MAVLink message of the live stream with pymavlink (bench/mavlink_link.py: CRC, sequence,
+# heartbeat rate, values against the scene's known motion). The last line is machine-readable:
+#   heartbeat=<int> optical_flow_rad=<int> optical_flow=<int> crc_errors=<int> gaps=<int>
+# Exits non-zero when any check fails, or QEMU fails or hangs.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+target=thumbv7em-none-eabihf
+# Far above a normal run (a few seconds with the build done), far below CI's limit.
+run_timeout=180
+
+if ! rustup target list --installed | grep -qx "$target"; then
+    echo "adding the Rust target $target" >&2
+    rustup target add "$target"
+fi
+for tool in qemu-system-arm python3; do
+    if ! command -v "$tool" >/dev/null; then
+        echo "error: $tool is required (Debian: apt-get install qemu-system-arm python3)" >&2
+        exit 2
+    fi
+done
+if ! python3 -c "import pymavlink" 2>/dev/null; then
+    echo "error: pymavlink is required (pip install pymavlink)" >&2
+    exit 2
+fi
+
+(cd "$root/firmware" && cargo build --release --quiet)
+timeout --kill-after=10 "$run_timeout" python3 "$root/bench/mavlink_link.py"

@@ -108,39 +108,35 @@ pub(crate) fn agreement(
     )?;
     let top = place(centre.1, win, dy, (win, win + 1), prev.height())?;
     let (ox, oy) = (left.checked_add_signed(dx)?, top.checked_add_signed(dy)?);
-    let prev_row = |r: usize| prev.row(top + r).get(left..);
-    let next_row = |r: usize| next.row(oy + r).get(ox..);
+    // Every row of either window, exactly as long as its words need.
+    let prev_row = |r: usize| prev.row(top + r).get(left..left + 4 * words + 1);
+    let next_row = |r: usize| next.row(oy + r).get(ox..ox + 4 * words + 4);
     // The bytes of each word inside the window, and inside its first `win - 1` columns.
     let masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win, k));
     let pair_masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win - 1, k));
     let mut sums = Sums::default();
     let mut stored = [(0u32, 0u32); MAX_WORDS * MAX_CHECKED_WINDOW];
-    let mut stored_rows = stored.chunks_exact_mut(MAX_WORDS);
     let mut above_prev = [0u32; MAX_WORDS];
-    let mut above_next = next_row(0)?;
-    for r in 0..win {
-        let (pixels, below_next) = (prev_row(r)?, next_row(r + 1)?);
-        let column = |k: usize| {
-            Some(vertical(
-                load(above_next, 4 * k)?,
-                load(below_next, 4 * k)?,
-                fy,
-            ))
-        };
-        let mut here = column(0)?;
-        let out = stored_rows.next()?;
-        let words_of_row = out.iter_mut().zip(&masks).zip(&mut above_prev).take(words);
-        for (k, ((pair, &m), above)) in words_of_row.enumerate() {
-            let right = column(k + 1)?;
-            let n = horizontal(here, right.0, fx) & m;
+    let mut above_next = row_words(next_row(0)?);
+    for (r, out) in stored.chunks_exact_mut(MAX_WORDS).take(win).enumerate() {
+        let pixels = prev_row(r)?;
+        let (prev_words, shifted) = (row_words(pixels), row_words(pixels.get(1..)?));
+        let below_next = row_words(next_row(r + 1)?);
+        let mut here = vertical(above_next[0], below_next[0], fy);
+        // All MAX_WORDS words, unrolled: those past the window's are masked to nothing.
+        for k in 0..MAX_WORDS {
+            let right = vertical(above_next[k + 1], below_next[k + 1], fy);
+            let n = horizontal(here, right.0, fx) & masks[k];
             here = right;
-            let p = load(pixels, 4 * k)? & m;
-            sums.add(n, p, (r > 0).then_some(*above));
-            (*pair, *above) = ((n, p), p);
-        }
-        for (k, &m) in pair_masks.iter().enumerate().take((win - 1).div_ceil(4)) {
-            let (a, b) = (load(pixels, 4 * k)?, load(pixels, 4 * k + 1)?);
-            sums.across = usada8(a & m, b & m, sums.across);
+            let p = prev_words[k] & masks[k];
+            // The first row has no row above: it counts nothing down.
+            let up = if r == 0 { p } else { above_prev[k] };
+            sums.add(n, p, up);
+            // Pixel i beside pixel i + 1, over the row's first `win - 1` pixels.
+            let pm = pair_masks[k];
+            sums.across = usada8(p & pm, shifted[k] & pm, sums.across);
+            out[k] = (n, p);
+            above_prev[k] = p;
         }
         above_next = below_next;
     }
@@ -195,15 +191,13 @@ struct Sums {
 
 impl Sums {
     /// Adds the words `n` (sampled) and `p` (previous) of one row, with `above`, the previous
-    /// window's word one row up.
+    /// window's word one row up (`p` itself on the first row).
     #[inline(always)]
-    fn add(&mut self, n: u32, p: u32, above: Option<u32>) {
+    fn add(&mut self, n: u32, p: u32, above: u32) {
         self.prev = usada8(p, 0, self.prev);
         self.next = usada8(n, 0, self.next);
         self.sad = usada8(n, p, self.sad);
-        if let Some(above) = above {
-            self.down = usada8(p, above, self.down);
-        }
+        self.down = usada8(p, above, self.down);
     }
 
     /// The sum of absolute differences less the mean difference, rounded to a grey level:
@@ -227,11 +221,15 @@ impl Sums {
     }
 }
 
-/// The little-endian word of `row`'s four pixels from `x`.
+/// The first `MAX_WORDS + 1` little-endian words of a row's pixels, 0 past its end.
 #[inline(always)]
-fn load(row: &[u8], x: usize) -> Option<u32> {
-    let bytes = row.get(x..x.checked_add(4)?)?;
-    Some(u32::from_le_bytes(bytes.try_into().ok()?))
+fn row_words(pixels: &[u8]) -> [u32; MAX_WORDS + 1] {
+    core::array::from_fn(|k| {
+        let chunk = pixels.get(4 * k..4 * k + 4);
+        chunk
+            .and_then(|c| c.try_into().ok())
+            .map_or(0, u32::from_le_bytes)
+    })
 }
 
 /// Rows `a` over `b` mixed `16 - fy : fy`: the even pixels' and the odd pixels' 16-bit lanes,

@@ -523,7 +523,8 @@ impl DenseFlow {
     /// answer needs no coarse level; a node whose fine search fails, or lands more than
     /// [`DenseFlow::FINE_REACH`] px from the prediction (it moves on its own, or the
     /// prediction is off), is searched again as [`DenseFlow::compute`] would, on the whole
-    /// pyramid from its centre.
+    /// pyramid from its centre; one too flat to track stays [`NodeStatus::LowTexture`], which
+    /// the whole pyramid would find again at the same finest-level window.
     ///
     /// Before any search, the camera check ([`DenseParams::camera_tolerance`]) compares each
     /// node's window with the next frame at the prediction: where they agree to within the
@@ -648,7 +649,7 @@ impl DenseFlow {
     }
 
     /// True when the camera check confirms that the node at pixel `centre` lands at `guess`.
-    fn moves_with_camera(
+    fn lands_at(
         &self,
         prev: &Pyramid<'_>,
         next: &Pyramid<'_>,
@@ -679,7 +680,7 @@ impl DenseFlow {
         let fine = match predict {
             Some(predict) => {
                 let guess = predict(start);
-                if self.moves_with_camera(prev, next, (x, y), guess) {
+                if self.lands_at(prev, next, (x, y), guess) {
                     let flow = Point::new(
                         guess.x.saturating_sub(start.x),
                         guess.y.saturating_sub(start.y),
@@ -694,7 +695,10 @@ impl DenseFlow {
                 let (gx, gy) = guess.to_f32();
                 let near =
                     (px - gx).abs() <= Self::FINE_REACH && (py - gy).abs() <= Self::FINE_REACH;
-                (step.is_tracked() && near).then_some(step)
+                // The finest level's template is the same whatever the search starts from:
+                // a window too flat here is too flat for the search on the whole pyramid.
+                let flat = step.status == TrackStatus::LowTexture;
+                ((step.is_tracked() && near) || flat).then_some(step)
             }
             None => None,
         };

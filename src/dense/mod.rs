@@ -75,10 +75,15 @@
 //! ```
 
 // The camera check's sums are bounded by its 15 px window (`agreement::MAX_CHECKED_WINDOW`):
-// at most 15 * 15 * 65,280 < 2^24, and each difference of grey x 32 fits an i16.
+// at most 15 * 15 * 255 < 2^16, and its 16-bit lanes below 2^16 (proved beside them). Its
+// indices are loop variables below the const sizes of the arrays they index.
 #[cfg_attr(
     not(test),
-    allow(clippy::arithmetic_side_effects, clippy::cast_possible_truncation)
+    allow(
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation,
+        clippy::indexing_slicing
+    )
 )]
 mod agreement;
 pub mod dominant;

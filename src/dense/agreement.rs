@@ -47,8 +47,9 @@ pub(crate) const MIN_TEXTURE: u32 = 2;
 /// most a quarter of a pixel at [`MIN_TEXTURE`].
 pub(crate) const NOISE: u32 = 128;
 
-/// The widest window checked; wider ones are left to LK (dense windows are 9 px by default).
-pub(crate) const MAX_CHECKED_WINDOW: usize = 15;
+/// The widest window checked, three words a row; wider ones are left to LK (dense windows are
+/// 9 px by default).
+pub(crate) const MAX_CHECKED_WINDOW: usize = 12;
 
 /// Words of a row of the widest window.
 const MAX_WORDS: usize = MAX_CHECKED_WINDOW.div_ceil(4);
@@ -62,7 +63,7 @@ impl Agreement {
     /// along the weaker direction, plus at most a quarter of a pixel for the noise. Never for a
     /// window flatter than [`MIN_TEXTURE`].
     pub fn confirms(&self, tolerance: u32) -> bool {
-        // The sums are below 15 * 15 * 255 < 2^16 and the tolerance at most 2^8.
+        // The sums are below 12 * 12 * 255 < 2^16 and the tolerance at most 2^8.
         let per_pixel = |grey: u32| u64::from(grey * self.pixels);
         if u64::from(self.texture) < per_pixel(MIN_TEXTURE) {
             return false;
@@ -323,7 +324,7 @@ mod tests {
         // A prediction that leaves no room for both windows, and a window too wide.
         let off = Point::from_f32(74.5, 20.0);
         assert_eq!(agreement(&view, &view, (24, 20), off, 9), None);
-        assert_eq!(agreement(&view, &view, (24, 20), guess, 17), None);
+        assert_eq!(agreement(&view, &view, (24, 20), guess, 13), None);
     }
 
     #[test]
@@ -335,7 +336,8 @@ mod tests {
         for (win, (dx, dy)) in [
             (9, (1.25, -0.5625)),
             (7, (0.0625, 2.875)),
-            (15, (-1.5, 0.3125)),
+            (11, (-1.5, 0.3125)),
+            (12, (0.5, 0.5)),
             (5, (0.0, 0.0)),
         ] {
             let px = |x: usize, y: usize| f32::from(next_view.get(x, y).unwrap_or(0));

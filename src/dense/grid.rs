@@ -395,7 +395,7 @@ pub struct DenseParams {
     /// With a prediction ([`DenseFlow::compute_predicted`]), the camera check's tolerance, px:
     /// a node whose window, moved as predicted, mismatches the next frame by at most this share
     /// of its own texture (the mismatch of a one-pixel shift) takes the predicted flow without
-    /// an LK search. 0 searches every node.
+    /// an LK search. 0 searches every node; so do windows wider than 12 px.
     pub camera_tolerance: f32,
 }
 

@@ -74,8 +74,8 @@
 //! assert_eq!((summary.layout.cols(), summary.layout.rows()), (4, 3));
 //! ```
 
-// The camera check's sums are bounded by its 15 px window (`agreement::MAX_CHECKED_WINDOW`):
-// at most 15 * 15 * 255 < 2^16, and its 16-bit lanes below 2^16 (proved beside them). Its
+// The camera check's sums are bounded by its 12 px window (`agreement::MAX_CHECKED_WINDOW`):
+// at most 12 * 12 * 255 < 2^16, and its 16-bit lanes below 2^16 (proved beside them). Its
 // indices are loop variables below the const sizes of the arrays they index.
 #[cfg_attr(
     not(test),

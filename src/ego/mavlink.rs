@@ -12,17 +12,19 @@
 //!
 //! - **PX4** reads OPTICAL_FLOW_RAD only. It stamps each message on arrival and takes
 //!   `integration_time_us` as the integration span, so readouts must be sent as soon as they are
-//!   made (`EKF2_OF_DELAY` covers the delay to the middle of the interval); `time_usec` is not
-//!   used to align them. EKF2 fuses a reading only when `quality` reaches `EKF2_OF_QMIN` (0 is
-//!   never used) and the flow rate stays within `SENS_FLOW_MAXR` (8 rad/s by default); it
-//!   subtracts the integrated gyro itself, or its own gyro when the fields are NaN.
-//! - **ArduPilot** (`FLOW_TYPE` 5) reads OPTICAL_FLOW; its OPTICAL_FLOW_RAD handler is left out
-//!   of builds for boards with 2 MB of flash or less. It averages `flow_rate_x/y` (or, from
-//!   sensors that never fill them, `flow_x/y`) over the messages between its own updates, timed
-//!   by their arrival, so the messages must come at a steady rate, less than 0.5 s apart. It
+//!   made: `EKF2_OF_DELAY` is the delay from the end of the integration to the message's arrival
+//!   (PX4 itself moves the sample back to the middle of the integration); `time_usec` is not
+//!   used to align them. In the air EKF2 fuses a reading only when `quality` reaches
+//!   `EKF2_OF_QMIN` (on the ground `EKF2_OF_QMIN_GND`, 0 by default, so there quality 0 passes)
+//!   and the flow rate stays within `SENS_FLOW_MAXR` (8 rad/s by default); it subtracts the
+//!   integrated gyro itself, or its own gyro when the fields are NaN.
+//! - **ArduPilot** (`FLOW_TYPE` 5) reads OPTICAL_FLOW and has no OPTICAL_FLOW_RAD handler. From
+//!   4.7 it averages `flow_rate_x/y` (or, from sensors that never fill them, `flow_x/y`; 4.6
+//!   and earlier read only `flow_x/y`) over the messages between its own updates, timed by
+//!   their arrival, so the messages must come at a steady rate, less than 0.5 s apart. It
 //!   uses its own gyro for the body rates. EKF3 drops a reading outright when its quality is
 //!   0 or its flow rate (or the gyro's) reaches 4.2 rad/s in magnitude, and fuses only rates
-//!   below `EK3_MAX_FLOW` (2.5 rad/s by default, settable up to 4.0).
+//!   below `EK3_MAX_FLOW` per axis (2.5 rad/s by default, settable up to 4.0).
 //!
 //! The library does not clamp rates to those limits: a rate beyond them is a true measurement
 //! that the autopilot should reject, not a smaller one it would trust. What never reaches the

@@ -1,7 +1,6 @@
 //! The dense grid and its motion boxes: LK at every node of an 8 px grid, then the regions that
 //! move unlike the camera.
 
-use kestrel::dense::dominant::{DominantMotion, FitParams};
 use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
@@ -100,14 +99,23 @@ impl Dense {
             .compute_predicted(prev, next, nodes, scratch, &predict)
     }
 
-    /// Fits the camera's motion to the grid, marks what moves otherwise, and boxes it.
-    pub fn boxes(&mut self, layout: &GridLayout) -> Result<MotionSummary, DenseError> {
+    /// Marks what moves otherwise than the camera and boxes it, against the camera's motion
+    /// fitted to the tracks. Without that fit (a scene cut, a blank frame) there is nothing
+    /// reliable to tell motion from, and no box.
+    pub fn boxes(
+        &mut self,
+        layout: &GridLayout,
+        camera: &EgoMotion,
+    ) -> Result<MotionSummary, DenseError> {
+        self.found = 0;
+        if camera.status != EgoStatus::Ok {
+            return Ok(MotionSummary::default());
+        }
         let buffers = &mut self.buffers;
-        let camera = DominantMotion::fit(layout, &buffers.nodes[..], &FitParams::default())?;
         let found = self.detector.detect(
             layout,
             &buffers.nodes[..],
-            &camera.motion,
+            &camera.model,
             &mut buffers.mask[..],
             &mut buffers.motion_scratch[..],
             &mut self.boxes,

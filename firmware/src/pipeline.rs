@@ -215,7 +215,7 @@ impl Pipeline {
             .run(meter, Stage::Dense, || dense.grid(&prev, &next, &motion))
             .map_err(FrameError::Dense)?;
         let moving = times
-            .run(meter, Stage::Boxes, || dense.boxes(&grid.layout))
+            .run(meter, Stage::Boxes, || dense.boxes(&grid.layout, &motion))
             .map_err(FrameError::Dense)?;
         Ok(FrameOutput::Tracked(Tracked {
             report,

@@ -42,11 +42,13 @@ use super::grid::{grid_len, GridLayout, GridNode, NodeStatus};
 use super::mask::{close, count, mask_words, open, set, words_for, Structure};
 use super::regions::{find_boxes, BoxRules, MotionBox};
 use super::DenseError;
+use crate::ego::model::Homography;
 
 /// The flow the camera's own motion gives each pixel.
 ///
-/// Implemented by [`DominantMotion`](super::dominant::DominantMotion); implement it for another model (a homography, a
-/// gyro-predicted rotation) to use that model for the mask instead.
+/// Implemented by [`DominantMotion`](super::dominant::DominantMotion), fitted to the grid, and
+/// by [`Homography`], such as the ego-motion fitted to the tracks; implement it for another
+/// model (a gyro-predicted rotation) to use that model for the mask instead.
 ///
 /// ```
 /// use kestrel::dense::motion::CameraMotion;
@@ -61,6 +63,22 @@ use super::DenseError;
 pub trait CameraMotion {
     /// The flow, px, of the static scene at pixel (`x`, `y`) of the previous frame.
     fn predict(&self, x: f32, y: f32) -> (f32, f32);
+}
+
+/// The flow a homography of the camera's motion (previous frame to next) gives each pixel.
+/// A pixel it cannot map (behind the camera: not the case of a fitted frame-to-frame model)
+/// is predicted still.
+///
+/// ```
+/// use kestrel::dense::motion::CameraMotion;
+/// use kestrel::ego::model::Homography;
+/// let pan = Homography::translation(1.5, -0.5).unwrap();
+/// assert_eq!(pan.predict(10.0, 20.0), (1.5, -0.5));
+/// ```
+impl CameraMotion for Homography {
+    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
+        self.apply((x, y)).map_or((0.0, 0.0), |(u, v)| (u - x, v - y))
+    }
 }
 
 /// `u32` words of scratch [`MotionDetector::detect`] needs: a second mask for the morphology

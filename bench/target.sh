@@ -4,7 +4,7 @@
 # high-water mark and flash for 100 tracks at 160x120. The last line is machine-readable:
 #   instructions_per_frame=<int> static_ram=<bytes> stack_peak=<bytes> flash=<bytes> tracks=<int>
 #   sensor_instructions_per_frame=<int> sensor_flow_error_px=<px> pipeline_instructions_per_frame=<int>
-#   kestrel_flash=<bytes> dense_instructions_per_frame=<int>
+#   kestrel_flash=<bytes> dense_instructions_per_frame=<int> kestrel_inlined_flash=<bytes>
 # Exits non-zero when the firmware reports a wrong result, or QEMU fails or hangs.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"

@@ -281,6 +281,9 @@ def main(argv):
     link = one(records, "link")
     out.append(row("MAVLink sending per readout", link["instructions_per_frame"],
                    f"beside the frame: HEARTBEAT/s, OPTICAL_FLOW_RAD, OPTICAL_FLOW; worst {link['worst']}"))
+    full = one(records, "link_check")
+    out.append(row("  port busy: frames kept, dropped", f"{full['whole']}, {full['dropped']}",
+                   f"boot check: {full['drained']} bytes drained whole, {full['gaps']} sequence gaps"))
     out.append(row("OPTICAL_FLOW_RAD flow error (worst frame)", sensor["flow_error_px"] + " px",
                    "<= 0.050 px at the principal point"))
     for bad in records.get("sensor_bad_input", []):

@@ -19,6 +19,18 @@ use kestrel::ego::{OpticalFlow, OpticalFlowRad};
 
 use crate::usart::Usart;
 
+/// Where the link's bytes go: a byte at a time, refused while the port is busy.
+pub trait Port {
+    /// Writes `byte` when the port has room; false (nothing written) when it is busy.
+    fn try_write(&mut self, byte: u8) -> bool;
+}
+
+impl Port for Usart {
+    fn try_write(&mut self, byte: u8) -> bool {
+        Usart::try_write(self, byte)
+    }
+}
+
 /// The vehicle's MAVLink system id.
 const SYSTEM_ID: u8 = 1;
 /// Microseconds between heartbeats on the frame clock.
@@ -41,29 +53,80 @@ pub struct LinkCounts {
     pub bytes: u32,
 }
 
-/// The MAVLink stream over USART2.
-pub struct Link {
-    usart: Usart,
+/// The MAVLink stream over a port, USART2 on the board.
+pub struct Link<P: Port = Usart> {
+    port: P,
+    outbox: Outbox,
+}
+
+impl Link {
+    /// The link on a freshly set-up USART2, sequence from 0.
+    pub fn new() -> Self {
+        Self::on(Usart::new())
+    }
+}
+
+impl<P: Port> Link<P> {
+    /// The link on `port`, sequence from 0.
+    pub fn on(port: P) -> Self {
+        Self {
+            port,
+            outbox: Outbox {
+                queue: Deque::new(),
+                header: MavlinkHeader::flow_sensor(SYSTEM_ID),
+                next_heartbeat_us: 0,
+                counts: LinkCounts::default(),
+            },
+        }
+    }
+
+    /// Queues one readout (with a HEARTBEAT when one is due) and pumps the queue.
+    pub fn send(&mut self, rad: &OpticalFlowRad, flow: &OpticalFlow) {
+        self.outbox.queue_readout(rad, flow);
+        self.pump();
+    }
+
+    /// Moves queued bytes to the port while it has room; never waits.
+    pub fn pump(&mut self) {
+        let outbox = &mut self.outbox;
+        while let Some(&byte) = outbox.queue.front() {
+            if !self.port.try_write(byte) {
+                break;
+            }
+            outbox.queue.pop_front();
+            outbox.counts.bytes += 1;
+        }
+    }
+
+    /// Bytes still queued.
+    pub fn pending(&self) -> usize {
+        self.outbox.queue.len()
+    }
+
+    /// The counts so far.
+    pub fn counts(&self) -> LinkCounts {
+        self.outbox.counts
+    }
+
+    /// The port, to inspect or change it.
+    pub fn port_mut(&mut self) -> &mut P {
+        &mut self.port
+    }
+}
+
+/// The frames waiting for the port, and what went into them: the same for every port, so built
+/// once.
+struct Outbox {
     queue: Deque<u8, QUEUE_LEN>,
     header: MavlinkHeader,
     next_heartbeat_us: u64,
     counts: LinkCounts,
 }
 
-impl Link {
-    /// The link on a freshly set-up USART2, sequence from 0.
-    pub fn new() -> Self {
-        Self {
-            usart: Usart::new(),
-            queue: Deque::new(),
-            header: MavlinkHeader::flow_sensor(SYSTEM_ID),
-            next_heartbeat_us: 0,
-            counts: LinkCounts::default(),
-        }
-    }
-
-    /// Queues one readout (with a HEARTBEAT when one is due) and pumps the queue.
-    pub fn send(&mut self, rad: &OpticalFlowRad, flow: &OpticalFlow) {
+impl Outbox {
+    /// Queues one readout's frames, a HEARTBEAT first when one is due.
+    #[inline(never)]
+    fn queue_readout(&mut self, rad: &OpticalFlowRad, flow: &OpticalFlow) {
         if rad.time_usec >= self.next_heartbeat_us {
             self.next_heartbeat_us =
                 (rad.time_usec / HEARTBEAT_PERIOD_US + 1) * HEARTBEAT_PERIOD_US;
@@ -78,28 +141,6 @@ impl Link {
         if self.queue_frame(|h, buf| encode_optical_flow(flow, h, buf)) {
             self.counts.flow += 1;
         }
-        self.pump();
-    }
-
-    /// Moves queued bytes to the USART while it has room; never waits.
-    pub fn pump(&mut self) {
-        while let Some(&byte) = self.queue.front() {
-            if !self.usart.try_write(byte) {
-                break;
-            }
-            self.queue.pop_front();
-            self.counts.bytes += 1;
-        }
-    }
-
-    /// Bytes still queued.
-    pub fn pending(&self) -> usize {
-        self.queue.len()
-    }
-
-    /// The counts so far.
-    pub fn counts(&self) -> LinkCounts {
-        self.counts
     }
 
     /// Encodes a frame with the next sequence number and queues it whole; false (and counted

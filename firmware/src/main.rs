@@ -17,6 +17,7 @@ mod dense;
 mod dsp_check;
 mod ego;
 mod link;
+mod link_check;
 mod memory;
 mod meter;
 mod pipeline;
@@ -57,7 +58,8 @@ fn main() -> ! {
     let dsp_checked = dsp_check::run();
     let pipeline = make_pipeline(TRACKER_MEMORY, DENSE_MEMORY);
     memory::print();
-    let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked;
+    let link_checked = link_check::run();
+    let passed = budget::run(pipeline, &meter) && calibrated && dsp_checked && link_checked;
     let mut link = link::Link::new();
     let passed = sensor::run(&meter, SENSOR_MEMORY, &mut link) && passed;
     profile::run(&meter, pipeline);

@@ -17,6 +17,7 @@
 //! track when the anchor is not found close by.
 
 use super::follow::distance_sq;
+use super::turn::Turn;
 use crate::frame::ImageView;
 use crate::q16::{Point, Q16};
 
@@ -30,10 +31,12 @@ const SPACING_SHIFT: u32 = 1;
 const PATCH_SPAN: usize = ((SIDE - 1) << SPACING_SHIFT) + 2;
 
 /// The appearance of a track's feature when it was born.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Anchor {
     /// Grey levels, row by row.
     samples: [u8; SAMPLES],
+    /// How the image has turned and zoomed since: the patch is sampled turned as much.
+    turned: Turn,
 }
 
 impl Anchor {
@@ -43,6 +46,27 @@ impl Anchor {
         // Grey x 16 rounded to grey: 49 bytes a track.
         Self {
             samples: fine.map(|v| (v.saturating_add(8) >> 4).min(255) as u8),
+            turned: Turn::NONE,
+        }
+    }
+
+    /// Turns the anchor with the frame it moved into.
+    pub(super) fn turn(&mut self, frame: Turn) {
+        self.turned = self.turned.then(frame);
+    }
+
+    /// True when the image has turned or zoomed since the anchor was captured by more than a
+    /// quarter of a pixel at its patch's corners.
+    pub(super) fn has_turned(&self) -> bool {
+        !self.turned.is_negligible()
+    }
+
+    /// The patch of `frame` around `position`, on the grid the anchor's feature now lies on.
+    fn sample(&self, frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
+        if self.turned.is_negligible() {
+            patch(frame, position)
+        } else {
+            turned_patch(frame, position, self.turned)
         }
     }
 
@@ -55,7 +79,7 @@ impl Anchor {
         position: Point,
         min_correlation: f32,
     ) -> bool {
-        let now = patch(frame, position);
+        let now = self.sample(frame, position);
         let Moments {
             covariance,
             var_a,
@@ -96,7 +120,14 @@ impl Anchor {
         let template = Template::of(&self.samples)?;
         let mut at = start;
         for _ in 0..LOCATE_ITERATIONS {
-            let (dx, dy) = template.step(&patch(frame, at))?;
+            let (dx, dy) = template.step(&self.sample(frame, at))?;
+            // The step is along the patch's grid; on the image it is turned as the grid is.
+            let (dx, dy) = if self.turned.is_negligible() {
+                (dx, dy)
+            } else {
+                let (x, y) = self.turned.apply((dx.to_num::<f32>(), dy.to_num::<f32>()));
+                (Q16::saturating_from_num(x), Q16::saturating_from_num(y))
+            };
             at = Point::new(at.x.saturating_sub(dx), at.y.saturating_sub(dy));
             if distance_sq(at, start) > max_shift_sq {
                 return None;
@@ -291,6 +322,20 @@ fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
         let sx = x0.saturating_add(col << SPACING_SHIFT);
         let sy = y0.saturating_add(row << SPACING_SHIFT);
         weights.sample(frame, sx, sy)
+    })
+}
+
+/// The 7 x 7 samples of [`patch`] on its grid turned and scaled by `turn` about `position`:
+/// each sample has a fraction of its own, so this is slower than the plain grid.
+fn turned_patch(frame: &ImageView<'_>, position: Point, turn: Turn) -> [u16; SAMPLES] {
+    let spacing = (1u32 << SPACING_SHIFT) as f32;
+    let centre = position.to_f32();
+    core::array::from_fn(|i| {
+        let at = |v: usize| (v as f32 - (SIDE / 2) as f32) * spacing;
+        let (ox, oy) = turn.apply((at(i % SIDE), at(i / SIDE)));
+        let q16 = |v: f32| Q16::saturating_from_num(v).to_bits();
+        let (x, y) = (q16(centre.0 + ox), q16(centre.1 + oy));
+        Bilinear::new(x, y).sample(frame, x >> 16, y >> 16)
     })
 }
 

@@ -2,11 +2,16 @@
 
 use super::anchor::Anchor;
 use super::config::Checked;
+use super::turn::{self, Turn};
 use super::{FrameReport, Track};
 use crate::lk::{LkError, PointTrack};
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use heapless::Vec;
+
+/// How often, in frames, a track whose image has turned or zoomed since its birth is relocated
+/// onto its birth patch (from that age on).
+const TURNED_RELOCATE: u32 = 2;
 
 /// Why a track was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,6 +60,21 @@ impl Follow<'_, '_> {
         // Forwards first, for every track: the residual gate needs the frame's median.
         let forward = self.forward_all::<N>(tracks, scratch)?;
         let max_residual = self.residual_limit::<N>(&forward);
+        // The birth patches turn and zoom with the image, so that a camera that yaws or climbs
+        // does not make good tracks look unlike their features.
+        let steps = tracks.iter().zip(forward.iter());
+        // At most turn::STEPS steps, spread over the tracks, say enough.
+        let every = tracks.len().div_ceil(turn::STEPS).max(1);
+        let tracked = steps.step_by(every).filter(|(_, f)| f.step.is_tracked());
+        let mut pairs: Vec<(Point, Point), { turn::STEPS }> = Vec::new();
+        for (t, f) in tracked {
+            // At most turn::STEPS by the stride above; a full buffer just stops taking more.
+            let _ = pairs.push((t.position, f.step.position));
+        }
+        let turn = Turn::of(&pairs);
+        if turn != Turn::NONE {
+            anchors.iter_mut().for_each(|anchor| anchor.turn(turn));
+        }
 
         let mut kept = 0;
         for i in 0..tracks.len() {
@@ -267,8 +287,13 @@ impl Follow<'_, '_> {
         let mut position = step.position;
         if let Some(relocate) = self.checked.relocate {
             let age = track.age.saturating_add(1);
-            let due = age >= relocate.from_age
-                && age.wrapping_add(track.id).checked_rem(relocate.every) == Some(0);
+            let on_schedule = |from: u32, every: u32| {
+                age >= from && age.wrapping_add(track.id).checked_rem(every) == Some(0)
+            };
+            // LK drifts faster on a turning or zooming image: its tracks are brought back
+            // onto their features sooner and more often.
+            let due = on_schedule(relocate.from_age, relocate.every)
+                || (anchor.has_turned() && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE));
             let frame = self.next.base();
             if due && anchor.inside(&frame, position) {
                 match anchor.locate(&frame, position, relocate.max_shift_sq) {

@@ -79,6 +79,7 @@ mod config;
 mod fingerprint;
 mod follow;
 mod refill;
+mod turn;
 
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
 pub use config::{Detector, TrackerConfig};

@@ -77,7 +77,8 @@ pub trait CameraMotion {
 /// ```
 impl CameraMotion for Homography {
     fn predict(&self, x: f32, y: f32) -> (f32, f32) {
-        self.apply((x, y)).map_or((0.0, 0.0), |(u, v)| (u - x, v - y))
+        self.apply((x, y))
+            .map_or((0.0, 0.0), |(u, v)| (u - x, v - y))
     }
 }
 

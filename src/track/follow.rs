@@ -281,7 +281,9 @@ impl Follow<'_, '_> {
         if !step.is_tracked() {
             return Ok(Err(Rejection::Lost));
         }
-        if max_residual.is_some_and(|max| step.residual > max) {
+        // A translation's residual grows on a turning or zooming image though the track is
+        // right: there the birth patch, turned with the image, judges it instead (below).
+        if max_residual.is_some_and(|max| step.residual > max) && !anchor.has_turned() {
             return Ok(Err(Rejection::Residual));
         }
         let mut position = step.position;

@@ -55,6 +55,11 @@ impl Anchor {
         self.turned = self.turned.then(frame);
     }
 
+    /// Compares the anchor unturned from now on.
+    pub(super) fn turn_back(&mut self) {
+        self.turned = Turn::NONE;
+    }
+
     /// True when the image has turned or zoomed since the anchor was captured by more than a
     /// quarter of a pixel at its patch's corners.
     pub(super) fn has_turned(&self) -> bool {

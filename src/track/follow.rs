@@ -9,8 +9,11 @@ use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use heapless::Vec;
 
-/// How often, in frames, a track whose image has turned or zoomed since its birth is relocated
-/// onto its birth patch (from that age on).
+/// Frames a track's birth patch turns with the image, from its birth.
+const TURN_AGE: u32 = 128;
+
+/// How often, in frames, a track is relocated onto its birth patch (from that age on) while the
+/// image turns or zooms fast and has turned since the track's birth.
 const TURNED_RELOCATE: u32 = 2;
 
 /// Why a track was dropped.
@@ -72,9 +75,22 @@ impl Follow<'_, '_> {
             let _ = pairs.push((t.position, f.step.position));
         }
         let turn = Turn::of(&pairs);
-        if turn != Turn::NONE {
-            anchors.iter_mut().for_each(|anchor| anchor.turn(turn));
+        // A frame's similarity is the image's turn only on average (a tilted ground zooms more
+        // at one edge than at the other): summed over a long life it would turn a patch more
+        // than its own feature turned. Old tracks compare their birth patches unturned.
+        for (anchor, track) in anchors.iter_mut().zip(tracks.iter()) {
+            if track.age < TURN_AGE {
+                anchor.turn(turn);
+            } else {
+                anchor.turn_back();
+            }
         }
+        // A translation's residual grows on an image that turns or zooms fast, though the
+        // tracks are right: in such a frame the residual gate is twice as wide, and the birth
+        // patches, turned with the image, judge the tracks besides.
+        let fast = turn.is_fast();
+        let widen = if fast { 2 } else { 1 };
+        let max_residual = max_residual.map(|max| max.saturating_mul_int(widen));
 
         let mut kept = 0;
         for i in 0..tracks.len() {
@@ -83,7 +99,7 @@ impl Follow<'_, '_> {
             else {
                 break;
             };
-            match self.judge(&track, anchor, fwd, max_residual, scratch)? {
+            match self.judge(&track, anchor, fwd, (max_residual, fast), scratch)? {
                 Ok(position) => {
                     let step = fwd.step.position;
                     let moved = Track {
@@ -274,16 +290,14 @@ impl Follow<'_, '_> {
         track: &Track,
         anchor: &Anchor,
         fwd: &Forward,
-        max_residual: Option<Q16>,
+        (max_residual, fast): (Option<Q16>, bool),
         scratch: &mut [i16],
     ) -> Result<Result<Point, Rejection>, LkError> {
         let step = fwd.step;
         if !step.is_tracked() {
             return Ok(Err(Rejection::Lost));
         }
-        // A translation's residual grows on a turning or zooming image though the track is
-        // right: there the birth patch, turned with the image, judges it instead (below).
-        if max_residual.is_some_and(|max| step.residual > max) && !anchor.has_turned() {
+        if max_residual.is_some_and(|max| step.residual > max) {
             return Ok(Err(Rejection::Residual));
         }
         let mut position = step.position;
@@ -292,10 +306,11 @@ impl Follow<'_, '_> {
             let on_schedule = |from: u32, every: u32| {
                 age >= from && age.wrapping_add(track.id).checked_rem(every) == Some(0)
             };
-            // LK drifts faster on a turning or zooming image: its tracks are brought back
-            // onto their features sooner and more often.
+            // LK drifts faster on an image that turns or zooms fast: its tracks are brought
+            // back onto their features sooner and more often.
+            let quick = fast && anchor.has_turned();
             let due = on_schedule(relocate.from_age, relocate.every)
-                || (anchor.has_turned() && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE));
+                || (quick && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE));
             let frame = self.next.base();
             if due && anchor.inside(&frame, position) {
                 match anchor.locate(&frame, position, relocate.max_shift_sq) {

@@ -36,6 +36,14 @@ const MIN_ESTIMATES: usize = 8;
 /// than a quarter of a pixel: patches are sampled on their plain grid.
 const NEGLIGIBLE: f32 = 0.03;
 
+/// How close to where a frame's turn takes it a step must land to agree with it, px; six in
+/// ten steps must.
+const AGREE: f32 = 0.5;
+
+/// A frame's turn beyond this (`|z - 1|`: 0.6 degrees, or 1 % of zoom, in one frame) is fast:
+/// a translation's residual grows with it.
+const FAST: f32 = 0.01;
+
 /// A frame's turn outside `|z - 1| <= MAX_CHANGE` is not believed (a scene cut, a frame of
 /// failed steps): the frame is taken not to turn.
 const MAX_CHANGE: f32 = 0.25;
@@ -59,10 +67,11 @@ impl Turn {
         ) else {
             return Self::NONE;
         };
-        let first = Self::about(steps, from, (from.0 + shift.0, from.1 + shift.1));
+        let centre = (from.0 + shift.0, from.1 + shift.1);
+        let first = Self::about(steps, from, centre);
         if first.is_negligible() {
             // Its bias is smaller still.
-            return first;
+            return first.agreed(steps, from, centre);
         }
         // The median step is the step of the middle point only approximately (under a turn,
         // steps vary across the frame): where the first estimate puts the middle, robustly,
@@ -73,8 +82,27 @@ impl Turn {
             Point::from_f32(pb.0 - x, pb.1 - y)
         }));
         match to {
-            Some(to) if first != Self::NONE => Self::about(steps, from, to),
-            _ => first,
+            Some(to) if first != Self::NONE => Self::about(steps, from, to).agreed(steps, from, to),
+            _ => first.agreed(steps, from, centre),
+        }
+    }
+
+    /// This turn about `from -> to` when most `steps` agree with it (within [`AGREE`] px);
+    /// else [`Turn::NONE`]: a frame whose steps are mostly wrong (a blank or saturated frame,
+    /// a scene cut) says nothing of how the image turned.
+    fn agreed(self, steps: &[(Point, Point)], from: (f32, f32), to: (f32, f32)) -> Self {
+        let agrees = |&&(a, b): &&(Point, Point)| {
+            let (pa, pb) = (a.to_f32(), b.to_f32());
+            let (x, y) = self.apply((pa.0 - from.0, pa.1 - from.1));
+            let (ex, ey) = (pb.0 - to.0 - x, pb.1 - to.1 - y);
+            ex * ex + ey * ey <= AGREE * AGREE
+        };
+        let agreeing = steps.iter().filter(agrees).count();
+        if agreeing.saturating_mul(10) >= steps.len().saturating_mul(6) && agreeing >= MIN_ESTIMATES
+        {
+            self
+        } else {
+            Self::NONE
         }
     }
 
@@ -128,6 +156,11 @@ impl Turn {
     /// True when the turn moves a patch's samples by less than a quarter of a pixel.
     pub fn is_negligible(self) -> bool {
         self.change_sq() <= NEGLIGIBLE * NEGLIGIBLE
+    }
+
+    /// True when one frame turns or zooms beyond [`FAST`].
+    pub fn is_fast(self) -> bool {
+        self.change_sq() > FAST * FAST
     }
 
     /// `|z - 1|^2`.

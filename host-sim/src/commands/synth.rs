@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use super::CommandError;
+use crate::cli::values::{self, path};
 use crate::io::atomic::write_atomically;
 use crate::io::create_output_dir;
 use crate::io::images::write_png;
@@ -17,27 +18,117 @@ use crate::synth::{
     SceneSpec, SplitMix64,
 };
 
-/// Everything `synth` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim synth`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "write seeded synthetic frame pairs with exact ground truth",
+    before_help = "host-sim synth: write seeded synthetic frame pairs with exact ground truth.
+
+Each pair is a procedural scene and the same scene under a known warp: a translation in a
+random direction up to --max-shift px, a rotation within 1 degree and a zoom within 2% about
+the centre.",
+    after_help = "Files in DIR, for each pair NNN:
+  pairNNN_a.png, pairNNN_b.png   the two frames (8-bit grey)
+  pairNNN_points.csv             x,y: points to track, for 'host-sim flow --points'
+  pairNNN_truth.csv              x,y,tx,ty: each point and its true position in frame b
+  manifest.csv                   pair,a,b,points,truth,dx,dy,angle_deg,scale,gain,bias
+
+Exit status: 0 success; 1 an output that cannot be written; 2 bad command line."
+)]
 pub struct SynthOptions {
-    /// Output directory (created if missing).
+    /// output directory, created if missing
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub out: PathBuf,
-    /// Number of pairs.
+    /// number of pairs, 1 to 1000
+    #[arg(long, value_name = "N", default_value_t = 10, value_parser = pairs)]
     pub pairs: usize,
-    /// Frame width in px.
+    /// frame width, 16 to 4096 px
+    #[arg(long, value_name = "W", default_value_t = 320, value_parser = size)]
     pub width: usize,
-    /// Frame height in px.
+    /// frame height, 16 to 4096 px
+    #[arg(long, value_name = "H", default_value_t = 240, value_parser = size)]
     pub height: usize,
-    /// Seed of the whole set.
+    /// seed of the whole set, a whole number >= 0
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = seed)]
     pub seed: u64,
-    /// Largest translation, px.
+    /// largest translation, 0 to 100 px
+    #[arg(long, value_name = "PX", default_value_t = 20.0, value_parser = shift)]
     pub max_shift: f64,
-    /// Brightness change of the second frame.
-    pub lighting: Lighting,
-    /// Sensor noise, grey levels (standard deviation).
+    /// brightness gain of the second frame, 0.1 to 10
+    #[arg(long, value_name = "G", default_value_t = 1.0, value_parser = gain)]
+    pub gain: f64,
+    /// brightness bias of the second frame, -255 to 255 grey levels
+    #[arg(long, value_name = "B", default_value_t = 0.0, value_parser = bias)]
+    pub bias: f64,
+    /// sensor noise, 0 to 50 grey levels
+    #[arg(long, value_name = "SIGMA", default_value_t = 1.5, value_parser = noise)]
     pub noise: f64,
-    /// At most this many points per pair.
+    /// at most N textured points per pair, 1 to 100000
+    #[arg(long, value_name = "N", default_value_t = 300, value_parser = points)]
     pub points: usize,
+}
+
+impl SynthOptions {
+    /// The brightness change of the second frame.
+    fn lighting(&self) -> Lighting {
+        Lighting {
+            gain: self.gain,
+            bias: self.bias,
+        }
+    }
+}
+
+fn pairs(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=1000).contains(&n);
+    values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
+}
+
+/// A frame side, shared with `synth-sequence`.
+pub fn size(text: &str) -> Result<usize, String> {
+    let range = |n| (16..=4096).contains(&n);
+    values::whole(text, range, "must be between 16 and 4096").map(|n| n as usize)
+}
+
+/// A seed, shared with `synth-sequence`.
+pub fn seed(text: &str) -> Result<u64, String> {
+    values::whole(text, |n| n >= 0, "must be a whole number >= 0").map(|n| n as u64)
+}
+
+fn shift(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.0..=100.0).contains(&v),
+        "must be between 0 and 100",
+    )
+}
+
+fn gain(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.1..=10.0).contains(&v),
+        "must be between 0.1 and 10",
+    )
+}
+
+fn bias(text: &str) -> Result<f64, String> {
+    let range = |v| (-255.0..=255.0).contains(&v);
+    values::number(text, range, "must be between -255 and 255")
+}
+
+/// Sensor noise, shared with `synth-sequence`.
+pub fn noise(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.0..=50.0).contains(&v),
+        "must be between 0 and 50",
+    )
+}
+
+fn points(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=100_000).contains(&n);
+    values::whole(text, range, "must be between 1 and 100000").map(|n| n as usize)
 }
 
 /// Smallest structure-tensor eigenvalue per pixel (grey levels per pixel, squared) for a grid
@@ -73,8 +164,8 @@ pub fn run(options: &SynthOptions) -> Result<(), CommandError> {
             generated.shift.1,
             generated.angle_deg,
             generated.scale,
-            options.lighting.gain,
-            options.lighting.bias,
+            options.gain,
+            options.bias,
         );
     }
     write_atomically(&options.out.join("manifest.csv"), manifest.as_bytes())?;
@@ -112,7 +203,7 @@ fn write_pair(
     )
     .with_noise(options.noise);
     let generated = generate(options, index, &spec);
-    let (a, b) = pair_with_lighting(&spec, &generated.warp, options.lighting);
+    let (a, b) = pair_with_lighting(&spec, &generated.warp, options.lighting());
     let dir = &options.out;
     write_png(&dir.join(&names.a), &a)?;
     write_png(&dir.join(&names.b), &b)?;

@@ -5,7 +5,9 @@ use std::ffi::OsString;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use super::motion::input;
 use super::{median, CommandError};
+use crate::cli::values::{self, path};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::write_rgb_png;
 use crate::io::json::JsonObject;
@@ -13,7 +15,8 @@ use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
 use crate::tracking::{
-    config_for, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
+    config_for, preset, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
+    MAX_TRACKS,
 };
 use crate::viz::Trails;
 use std::collections::HashMap;
@@ -22,23 +25,65 @@ use std::collections::HashMap;
 /// residual in grey levels.
 pub const COLUMNS: [&str; 6] = ["frame", "id", "x", "y", "age", "residual"];
 
-/// Everything `track` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim track`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)",
+    before_help = "host-sim track: the library's KLT tracker over a sequence: corners detected, followed with
+Lucas-Kanade, checked (forward-backward, residual, appearance), dropped and refilled.",
+    after_help = "tracks.csv columns:
+  frame     frame index, from 0
+  id        track id; ids are never reused, and a track's first row is the frame it was
+            detected in
+  x,y       position in px, from the centre of the top-left pixel, x right, y down
+  age       frames the track has been followed since it was detected
+  residual  mean absolute intensity residual of its last step, grey levels
+
+The firmware's configuration (firmware/src/pipeline.rs) is --window 9 --levels 2 --template
+nearest-pixel; the flow sensor's is --preset flow-sensor.
+
+A bad frame ends the run with an error naming it; tracks.csv then holds every frame before it.
+Progress is shown on stderr when it is a terminal.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line."
+)]
 pub struct TrackOptions {
-    /// The sequence: a directory, a y4m file, or `-` for y4m on standard input.
+    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file (the Y
+    /// plane), or - for y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - |
+    /// host-sim track - ...)
+    #[arg(value_name = "INPUT", value_parser = input)]
     pub input: OsString,
-    /// Where tracks.csv goes.
+    /// tracks, one row per live track per frame (see below)
+    #[arg(long, value_name = "FILE", value_parser = path)]
     pub out: PathBuf,
-    /// The number of tracks aimed for, when given.
+    /// number of tracks aimed for, 1 to 1000 [default: 100; the preset's with --preset]
+    #[arg(long, value_name = "N", value_parser = max_tracks)]
     pub max_tracks: Option<usize>,
-    /// The configuration the tracker starts from, when not its defaults.
+    /// flow-sensor: the library's TrackerConfig::flow_sensor() (25 tracks, 7x7 windows on two
+    /// levels of a box-mean pyramid, FAST corners), the settings a flight controller runs at
+    /// 400 Hz; flags given beside it override it [default: none, the tracker's defaults]
+    #[arg(long, value_name = "NAME", value_parser = preset)]
     pub preset: Option<Preset>,
-    /// Settings given beside it, which override it.
+    #[command(flatten)]
     pub settings: TrackerSettings,
-    /// Where the trail pictures go, if anywhere.
+    /// one PNG per frame (000000.png, ...) with each track's trail over its last 10 frames,
+    /// coloured by id; DIR is created if missing
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub viz: Option<PathBuf>,
-    /// Where to write the timing summary, if anywhere.
+    /// write {"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life",
+    /// "drops": {reason: count}}: the library's time per frame (decoding and writing
+    /// excluded), the frames a track is live in on average, and the tracks dropped by each
+    /// gate (lost, residual, appearance, forward_backward)
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+}
+
+fn max_tracks(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=MAX_TRACKS as i64).contains(&n);
+    values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
 }
 
 impl From<TrackingFailure> for CommandError {

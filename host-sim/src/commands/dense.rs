@@ -15,8 +15,9 @@ use crate::dense::wheel::flow_picture;
 use crate::dense::{DenseRunner, RunError};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::{encode_rgb_png, read_grey};
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{AtomicFile, InputError, OutputError};
+use serde_json::json;
 
 /// Columns of grid.csv: the contract's five, then the node's status by name.
 pub const COLUMNS: [&str; 6] = ["x", "y", "dx", "dy", "ok", "status"];
@@ -167,11 +168,11 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
         file.write_all(&bytes).map_err(|e| file.write_error(&e))?;
     }
     if let Some(file) = &mut outputs.stats {
-        let summary = JsonObject::new()
-            .integer("nodes", layout.len() as u64)
-            .integer("repeat", options.repeat as u64)
-            .number("median_core_seconds", seconds)
-            .finish();
+        let summary = one_line(&json!({
+            "nodes": layout.len(),
+            "repeat": options.repeat,
+            "median_core_seconds": seconds,
+        }));
         file.write_all(summary.as_bytes())
             .map_err(|e| file.write_error(&e))?;
     }
@@ -225,16 +226,16 @@ fn write_grid_csv(out: impl Write, layout: &GridLayout, nodes: &[GridNode]) -> i
         let (col, row) = layout.node(index);
         let (x, y) = layout.centre(col, row);
         let (dx, dy) = node.flow.to_f32();
-        csv.record(&[
-            &x,
-            &y,
-            &Fixed4(f64::from(dx)),
-            &Fixed4(f64::from(dy)),
-            &u8::from(node.is_valid()),
-            &status_name(node.status),
-        ])?;
+        csv.record((
+            x,
+            y,
+            Fixed4(f64::from(dx)),
+            Fixed4(f64::from(dy)),
+            u8::from(node.is_valid()),
+            status_name(node.status),
+        ))?;
     }
-    csv.into_inner().flush()
+    csv.finish()?.flush()
 }
 
 #[cfg(test)]

@@ -24,10 +24,11 @@ use crate::egomotion::{
     Pacer, PairMotion, SendFailures, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
 };
 use crate::io::csv::CsvWriter;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{AtomicFile, FrameSource, Progress};
 use crate::tracking::{preset, LkSettings, Preset};
 use crate::Frame;
+use serde_json::json;
 
 /// Columns of ego.csv: the contract's twelve, then the extras.
 pub const COLUMNS: [&str; 17] = [
@@ -422,7 +423,9 @@ impl Outputs {
             stats.commit()?;
         }
         let undelivered = self.mavlink.map(MavlinkLink::finish).transpose()?.flatten();
-        self.csv.into_inner().commit()?;
+        let target = self.csv.get_ref().target().to_owned();
+        let csv_error = |e: std::io::Error| CommandError::from(out_error(&target, &e));
+        self.csv.finish().map_err(csv_error)?.commit()?;
         if let Some((link, failures)) = undelivered {
             report_send_failures(&link, &failures);
         }
@@ -456,13 +459,13 @@ fn timing_summary(run: &SequenceRun) -> String {
             total / pairs as f64
         }
     };
-    JsonObject::new()
-        .integer("frames", run.frames as u64)
-        .integer("pairs", pairs as u64)
-        .number("mean_tracked_points", mean(run.tracked_total as f64))
-        .number("median_pair_seconds", median)
-        .number("mean_pair_seconds", mean(seconds.iter().sum()))
-        .finish()
+    one_line(&json!({
+        "frames": run.frames,
+        "pairs": pairs,
+        "mean_tracked_points": mean(run.tracked_total as f64),
+        "median_pair_seconds": median,
+        "mean_pair_seconds": mean(seconds.iter().sum()),
+    }))
 }
 
 /// One ego.csv row. Matrix entries are printed in full (the shortest text that reads back as
@@ -470,25 +473,17 @@ fn timing_summary(run: &SequenceRun) -> String {
 fn write_row(csv: &mut CsvWriter<AtomicFile>, report: &PairReport) -> std::io::Result<()> {
     let m = report.pair.motion.model.matrix();
     let r = &report.reading;
-    csv.record(&[
-        &report.frame,
-        &m[0],
-        &m[1],
-        &m[2],
-        &m[3],
-        &m[4],
-        &m[5],
-        &m[6],
-        &m[7],
-        &m[8],
-        &report.pair.motion.inliers,
-        &r.quality,
-        &report.pair.tracked,
-        &report.pair.motion.rms_residual,
-        &r.integrated_x,
-        &r.integrated_y,
-        &report.status.name(),
-    ])
+    csv.record((
+        report.frame,
+        m,
+        report.pair.motion.inliers,
+        r.quality,
+        report.pair.tracked,
+        report.pair.motion.rms_residual,
+        r.integrated_x,
+        r.integrated_y,
+        report.status.name(),
+    ))
 }
 
 /// One stderr line for the datagrams a UDP link could not send: never an error, a listener

@@ -11,9 +11,10 @@ use super::{check_same_size, time_core, CommandError};
 use crate::cli::values::{self, path};
 use crate::io::csv::{read_points, CsvWriter, Fixed4};
 use crate::io::images::read_grey;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::AtomicFile;
 use crate::{reference, Frame};
+use serde_json::json;
 
 /// Columns of the output file: the contract's six, then the status by name.
 pub const COLUMNS: [&str; 7] = ["x", "y", "nx", "ny", "ok", "err", "status"];
@@ -181,11 +182,11 @@ pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
 
     write_flow_csv(&mut out, &points, &flows).map_err(|e| out.write_error(&e))?;
     if let Some(stats) = &mut stats {
-        let summary = JsonObject::new()
-            .integer("points", points.len() as u64)
-            .integer("repeat", options.repeat as u64)
-            .number("median_core_seconds", median_seconds)
-            .finish();
+        let summary = one_line(&json!({
+            "points": points.len(),
+            "repeat": options.repeat,
+            "median_core_seconds": median_seconds,
+        }));
         stats
             .write_all(summary.as_bytes())
             .map_err(|e| stats.write_error(&e))?;
@@ -292,15 +293,15 @@ fn write_flow_csv(out: impl Write, points: &[(f32, f32)], flows: &[PointFlow]) -
     let mut csv = CsvWriter::new(out, &COLUMNS)?;
     for (&(x, y), flow) in points.iter().zip(flows) {
         let ok = u8::from(flow.status == TrackStatus::Tracked);
-        csv.record(&[
-            &Fixed4(f64::from(x)),
-            &Fixed4(f64::from(y)),
-            &Fixed4(flow.x),
-            &Fixed4(flow.y),
-            &ok,
-            &Fixed4(flow.residual),
-            &status_name(flow.status),
-        ])?;
+        csv.record((
+            Fixed4(f64::from(x)),
+            Fixed4(f64::from(y)),
+            Fixed4(flow.x),
+            Fixed4(flow.y),
+            ok,
+            Fixed4(flow.residual),
+            status_name(flow.status),
+        ))?;
     }
     Ok(())
 }

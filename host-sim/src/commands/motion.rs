@@ -19,9 +19,10 @@ use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
 use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{create_output_dir, AtomicFile, FrameSource, OutputError, Progress};
 use crate::Frame;
+use serde_json::json;
 
 /// Columns of boxes.csv: the contract's five, then the region's size in grid nodes.
 pub const COLUMNS: [&str; 6] = ["frame", "x", "y", "w", "h", "nodes"];
@@ -156,14 +157,14 @@ pub fn run(options: &MotionOptions) -> Result<(), CommandError> {
     }
 
     if pass.frames > 0 {
-        out.write_all(&csv.into_inner())
-            .map_err(|e| out.write_error(&e))?;
+        let rows = csv.finish().map_err(|e| out.write_error(&e))?;
+        out.write_all(&rows).map_err(|e| out.write_error(&e))?;
         out.commit()?;
         if let Some(mut stats) = stats.take() {
-            let summary = JsonObject::new()
-                .integer("frames", pass.frames as u64)
-                .number("median_frame_seconds", median(&mut pass.seconds))
-                .finish();
+            let summary = one_line(&json!({
+                "frames": pass.frames,
+                "median_frame_seconds": median(&mut pass.seconds),
+            }));
             stats
                 .write_all(summary.as_bytes())
                 .map_err(|e| stats.write_error(&e))?;
@@ -227,7 +228,7 @@ fn detect(
 /// One row per box, `frame` being the later frame of the pair.
 fn write_boxes(csv: &mut CsvWriter<Vec<u8>>, frame: usize, boxes: &[MotionBox]) -> io::Result<()> {
     for b in boxes {
-        csv.record(&[&frame, &b.x, &b.y, &b.w, &b.h, &b.nodes])?;
+        csv.record((frame, b.x, b.y, b.w, b.h, b.nodes))?;
     }
     Ok(())
 }

@@ -5,13 +5,13 @@
 //! centre), optionally with a brightness gain and bias and sensor noise. The points are the
 //! textured nodes of a grid whose true positions stay inside the second frame.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use super::CommandError;
 use crate::cli::values::{self, path};
 use crate::io::atomic::write_atomically;
 use crate::io::create_output_dir;
+use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::synth::{
     grid_points, pair_with_lighting, textured_points, true_position, Homography, Lighting,
@@ -131,6 +131,26 @@ fn points(text: &str) -> Result<usize, String> {
     values::whole(text, range, "must be between 1 and 100000").map(|n| n as usize)
 }
 
+/// Columns of manifest.csv.
+const MANIFEST_COLUMNS: [&str; 11] = [
+    "pair",
+    "a",
+    "b",
+    "points",
+    "truth",
+    "dx",
+    "dy",
+    "angle_deg",
+    "scale",
+    "gain",
+    "bias",
+];
+
+/// Writing CSV into memory fails only on a bug.
+fn text_error(error: std::io::Error) -> CommandError {
+    CommandError::Processing(format!("cannot format CSV: {error}"))
+}
+
 /// Smallest structure-tensor eigenvalue per pixel (grey levels per pixel, squared) for a grid
 /// node to count as textured: gradients of about 3 grey levels per pixel in every direction.
 const MIN_STRENGTH: f32 = 10.0;
@@ -149,26 +169,28 @@ struct GeneratedPair {
 /// Runs `synth`.
 pub fn run(options: &SynthOptions) -> Result<(), CommandError> {
     create_output_dir(&options.out)?;
-    let mut manifest = String::from("pair,a,b,points,truth,dx,dy,angle_deg,scale,gain,bias\n");
+    let mut manifest = CsvWriter::new(Vec::new(), &MANIFEST_COLUMNS).map_err(text_error)?;
     for index in 0..options.pairs {
         let names = PairNames::new(index);
         let generated = write_pair(options, index, &names)?;
-        let _ = writeln!(
-            manifest,
-            "{index},{},{},{},{},{:.4},{:.4},{:.4},{:.5},{},{}",
-            names.a,
-            names.b,
-            names.points,
-            names.truth,
-            generated.shift.0,
-            generated.shift.1,
-            generated.angle_deg,
-            generated.scale,
+        let (shift, angle, scale) = (generated.shift, generated.angle_deg, generated.scale);
+        let row = (
+            index,
+            &names.a,
+            &names.b,
+            &names.points,
+            &names.truth,
+            format!("{:.4}", shift.0),
+            format!("{:.4}", shift.1),
+            format!("{angle:.4}"),
+            format!("{scale:.5}"),
             options.gain,
             options.bias,
         );
+        manifest.record(row).map_err(text_error)?;
     }
-    write_atomically(&options.out.join("manifest.csv"), manifest.as_bytes())?;
+    let manifest = manifest.finish().map_err(text_error)?;
+    write_atomically(&options.out.join("manifest.csv"), &manifest)?;
     Ok(())
 }
 
@@ -207,13 +229,17 @@ fn write_pair(
     let dir = &options.out;
     write_png(&dir.join(&names.a), &a)?;
     write_png(&dir.join(&names.b), &b)?;
-    let (mut points, mut truth) = (String::from("x,y\n"), String::from("x,y,tx,ty\n"));
+    let mut points = CsvWriter::new(Vec::new(), &["x", "y"]).map_err(text_error)?;
+    let mut truth = CsvWriter::new(Vec::new(), &["x", "y", "tx", "ty"]).map_err(text_error)?;
     for &((x, y), (tx, ty)) in &generated.points {
-        let _ = writeln!(points, "{x},{y}");
-        let _ = writeln!(truth, "{x},{y},{tx:.5},{ty:.5}");
+        points.record((x, y)).map_err(text_error)?;
+        let row = (x, y, format!("{tx:.5}"), format!("{ty:.5}"));
+        truth.record(row).map_err(text_error)?;
     }
-    write_atomically(&dir.join(&names.points), points.as_bytes())?;
-    write_atomically(&dir.join(&names.truth), truth.as_bytes())?;
+    let points = points.finish().map_err(text_error)?;
+    let truth = truth.finish().map_err(text_error)?;
+    write_atomically(&dir.join(&names.points), &points)?;
+    write_atomically(&dir.join(&names.truth), &truth)?;
     Ok(generated)
 }
 

@@ -6,7 +6,6 @@
 //! body rates, sampled every millisecond from frame 0 to the last frame, in the layout
 //! `egomotion --gyro` reads).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use super::egomotion::fps;
@@ -14,7 +13,9 @@ use super::synth::{noise, seed, size};
 use super::CommandError;
 use crate::cli::values::{self, path};
 use crate::egomotion::FrameClock;
+use crate::egomotion::GYRO_COLUMNS;
 use crate::io::atomic::write_atomically;
+use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::io::{create_output_dir, Progress};
 use crate::synth::{FlightPath, FlightSequence, SceneSpec};
@@ -129,27 +130,33 @@ pub fn frame_name(k: usize) -> String {
 
 /// `frame,h11,...,h33`: the homography from frame-1 to frame for every pair, exact to f64.
 fn truth_csv(sequence: &FlightSequence, frames: usize) -> String {
-    let mut text = String::from("frame,h11,h12,h13,h21,h22,h23,h31,h32,h33\n");
+    let mut csv = CsvWriter::new(Vec::new(), &TRUTH_COLUMNS).expect("CSV into memory");
     for k in 1..frames {
         let m = sequence.flight().pair_homography(k).m;
         let entries: Vec<String> = m.iter().flatten().map(|v| format!("{v:e}")).collect();
-        let _ = writeln!(text, "{k},{}", entries.join(","));
+        csv.record((k, entries)).expect("CSV into memory");
     }
-    text
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
 }
+
+/// Columns of truth.csv: ego.csv's first ten.
+const TRUTH_COLUMNS: [&str; 10] = [
+    "frame", "h11", "h12", "h13", "h21", "h22", "h23", "h31", "h32", "h33",
+];
 
 /// `t_us,gx,gy,gz` every millisecond from 0 to `end_us` (and at `end_us`), constant `rates`.
 fn gyro_csv(rates: [f64; 3], end_us: u64) -> String {
     let step = 1_000_000 / GYRO_RATE_HZ;
-    let mut text = String::from("t_us,gx,gy,gz\n");
+    let mut csv = CsvWriter::new(Vec::new(), &GYRO_COLUMNS).expect("CSV into memory");
     let mut times: Vec<u64> = (0..=end_us).step_by(step as usize).collect();
     if times.last() != Some(&end_us) {
         times.push(end_us);
     }
+    let rates = rates.map(|r| format!("{r:e}"));
     for t in times {
-        let _ = writeln!(text, "{t},{:e},{:e},{:e}", rates[0], rates[1], rates[2]);
+        csv.record((t, &rates)).expect("CSV into memory");
     }
-    text
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use super::{median, CommandError};
 use crate::cli::values::{self, path};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::write_rgb_png;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
@@ -19,6 +19,7 @@ use crate::tracking::{
     MAX_TRACKS,
 };
 use crate::viz::Trails;
+use serde_json::json;
 use std::collections::HashMap;
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
@@ -143,7 +144,9 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     });
     progress.finish();
     if frames_done > 0 && !csv_failed {
-        csv.into_inner().commit()?;
+        csv.finish()
+            .map_err(|e| write_error(&options.out, &e))?
+            .commit()?;
         if let Some(stats) = stats {
             write_stats(stats, &mut seconds, &lives)?;
         }
@@ -197,14 +200,15 @@ fn write_stats(
     let drops = reasons
         .iter()
         .zip(lives.drops)
-        .fold(JsonObject::new(), |o, (reason, n)| o.integer(reason, n));
-    let summary = JsonObject::new()
-        .integer("frames", seconds.len() as u64)
-        .number("median_frame_seconds", median(seconds))
-        .number("mean_frame_seconds", mean)
-        .number("mean_track_life", lives.mean())
-        .object("drops", drops)
-        .finish();
+        .map(|(reason, n)| (reason.to_string(), json!(n)))
+        .collect::<serde_json::Map<_, _>>();
+    let summary = one_line(&json!({
+        "frames": seconds.len(),
+        "median_frame_seconds": median(seconds),
+        "mean_frame_seconds": mean,
+        "mean_track_life": lives.mean(),
+        "drops": drops,
+    }));
     file.write_all(summary.as_bytes())
         .map_err(|e| file.write_error(&e))?;
     Ok(file.commit()?)
@@ -216,14 +220,14 @@ pub(crate) fn write_rows(
     tracked: &TrackedFrame<'_>,
 ) -> io::Result<()> {
     for track in tracked.tracks {
-        csv.record(&[
-            &tracked.index,
-            &track.id,
-            &Fixed4(track.position.x.to_num()),
-            &Fixed4(track.position.y.to_num()),
-            &track.age,
-            &Fixed4(track.residual.to_num()),
-        ])?;
+        csv.record((
+            tracked.index,
+            track.id,
+            Fixed4(track.position.x.to_num()),
+            Fixed4(track.position.y.to_num()),
+            track.age,
+            Fixed4(track.residual.to_num()),
+        ))?;
     }
     Ok(())
 }
@@ -268,7 +272,7 @@ mod tests {
         };
         let mut csv = CsvWriter::new(Vec::new(), &COLUMNS).unwrap();
         write_rows(&mut csv, &tracked).unwrap();
-        let text = String::from_utf8(csv.into_inner()).unwrap();
+        let text = String::from_utf8(csv.finish().unwrap()).unwrap();
         assert_eq!(
             text,
             "frame,id,x,y,age,residual\n5,7,1.5000,2.2500,3,0.5000\n"

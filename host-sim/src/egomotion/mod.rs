@@ -15,5 +15,5 @@ pub use clock::{FrameClock, Pacer};
 pub use estimator::{
     EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
 };
-pub use gyro::{GyroLog, GyroSample};
+pub use gyro::{GyroLog, GyroSample, GYRO_COLUMNS};
 pub use link::{MavlinkDestination, MavlinkLink, SendFailures};

@@ -60,7 +60,9 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
         );
         Ok(())
     })?;
-    csv.into_inner().commit()?;
+    csv.finish()
+        .map_err(|e| write_error(&csv_path, &e))?
+        .commit()?;
     write_rgb_png(
         &dir.join("contact_sheet.png"),
         &contact_sheet(&sheet, SHEET_COLUMNS, 2),

@@ -167,6 +167,8 @@ pub struct Y4mReader<R> {
     input: String,
     /// Frames read so far: the index of the next one.
     frames_read: usize,
+    /// Bytes of the header line, its newline included.
+    header_len: usize,
 }
 
 impl<R: BufRead> Y4mReader<R> {
@@ -175,6 +177,10 @@ impl<R: BufRead> Y4mReader<R> {
         let line = read_line(&mut reader, MAX_HEADER_LEN).map_err(|e| {
             InputError::new(input, format!("cannot read: {}", describe_io_error(&e)))
         })?;
+        let header_len = match &line {
+            Line::Complete(line) => line.len() + 1,
+            _ => 0,
+        };
         let header = match line {
             Line::Complete(line) => Y4mHeader::parse(&line),
             Line::End => Err("empty input; expected a y4m stream".to_owned()),
@@ -189,7 +195,15 @@ impl<R: BufRead> Y4mReader<R> {
             header,
             input: input.to_owned(),
             frames_read: 0,
+            header_len,
         })
+    }
+
+    /// The frames in a stream of `total` bytes whose frames carry no parameters (`FRAME\n`):
+    /// what a progress bar expects of a y4m file.
+    pub fn frames_in(&self, total: u64) -> usize {
+        let per_frame = (b"FRAME\n".len() + self.header.frame_bytes()) as u64;
+        (total.saturating_sub(self.header_len as u64) / per_frame) as usize
     }
 
     /// The stream's header.

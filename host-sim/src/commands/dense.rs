@@ -163,7 +163,8 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     }
     if let (Some(file), Some(field)) = (&mut outputs.png, &field) {
         let picture = flow_picture(field);
-        let bytes = encode_rgb_png(picture.width, picture.height, &picture.rgb)
+        let (width, height) = (picture.width() as usize, picture.height() as usize);
+        let bytes = encode_rgb_png(width, height, picture.as_raw())
             .map_err(|problem| OutputError::new(file.target(), problem))?;
         file.write_all(&bytes).map_err(|e| file.write_error(&e))?;
     }

@@ -19,6 +19,7 @@ use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
 use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
+use crate::io::images::write_rgb_png;
 use crate::io::json::one_line;
 use crate::io::{create_output_dir, AtomicFile, FrameSource, OutputError, Progress};
 use crate::Frame;
@@ -242,6 +243,6 @@ fn write_picture(
     found: &MotionFrame,
     boxes: &[MotionBox],
 ) -> Result<(), OutputError> {
-    let canvas = motion_overlay(later, runner.layout(), runner.nodes(), &found.mask, boxes);
-    canvas.write_png(&dir.join(format!("frame_{index:06}.png")))
+    let picture = motion_overlay(later, runner.layout(), runner.nodes(), &found.mask, boxes);
+    write_rgb_png(&dir.join(format!("frame_{index:06}.png")), &picture)
 }

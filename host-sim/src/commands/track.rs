@@ -129,7 +129,7 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
         // The picture first: a frame's rows are only written once all its outputs are.
         if let Some(dir) = &options.viz {
             trails.update(tracked.tracks);
-            let picture = trails.draw(tracked.frame).into_image();
+            let picture = trails.draw(tracked.frame);
             write_rgb_png(&dir.join(frame_picture_name(tracked.index)), &picture)?;
         }
         write_rows(&mut csv, tracked).map_err(|e| {

@@ -4,6 +4,13 @@
 //! frame a line starting with `FRAME` and the planar picture: Y, then the chroma planes, whose size
 //! the colour space fixes. Only 8-bit colour spaces are read; Y is already grey, so it is used as
 //! is and the chroma is skipped. `ffmpeg -i clip.mp4 -f yuv4mpegpipe -` writes this format.
+//!
+//! Hand-written rather than the `y4m` crate (0.8), which fails host-sim/tests/hostile_input.rs:
+//! a last frame cut in its picture data or in its FRAME marker ends its `read_frame` with
+//! `Error::EOF`, exactly as the clean end of a stream does, so a truncated recording would pass
+//! for a complete one ("last frame cut in its picture": no "truncated" error). It also accepts
+//! `F30:0` and takes `C420p10` without refusing it, and its header errors ("General parsing
+//! error") do not say which field is wrong, where the contract's messages must.
 
 use std::io::{self, BufRead, Read};
 

@@ -1,5 +1,9 @@
 //! `host-sim track`: the library's KLT tracker over a sequence, one CSV row per live track per
 //! frame, and optionally a picture of the trails per frame.
+//!
+//! The tracker run over a sequence, shared with the demo and the tests, is [`tracking`].
+
+pub mod tracking;
 
 use std::ffi::OsString;
 use std::io::{self, Write};
@@ -14,13 +18,13 @@ use crate::io::json::one_line;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
-use crate::tracking::{
-    config_for, preset, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
-    MAX_TRACKS,
-};
 use crate::viz::Trails;
 use serde_json::json;
 use std::collections::HashMap;
+use tracking::{
+    config_for, preset, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
+    MAX_TRACKS,
+};
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
 /// residual in grey levels.

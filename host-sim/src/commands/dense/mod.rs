@@ -1,5 +1,15 @@
 //! `host-sim dense`: the library's grid flow between two frames, as CSV, a Middlebury `.flo`
 //! field and the Middlebury colour picture.
+//!
+//! The grid and motion runners `dense` and `motion` share (runner.rs), the `.flo` field
+//! (field.rs), the colour wheel (wheel.rs) and the motion overlay (picture.rs) live beside it.
+
+pub mod field;
+pub mod picture;
+mod runner;
+pub mod wheel;
+
+pub use runner::*;
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -10,14 +20,13 @@ use kestrel::lk::LkParams;
 
 use super::{check_same_size, time_core, CommandError};
 use crate::cli::values::{self, path};
-use crate::dense::field::FlowField;
-use crate::dense::wheel::flow_picture;
-use crate::dense::{DenseRunner, RunError};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::{encode_rgb_png, read_grey};
 use crate::io::json::one_line;
 use crate::io::{AtomicFile, InputError, OutputError};
+use field::FlowField;
 use serde_json::json;
+use wheel::flow_picture;
 
 /// Columns of grid.csv: the contract's five, then the node's status by name.
 pub const COLUMNS: [&str; 6] = ["x", "y", "dx", "dy", "ok", "status"];

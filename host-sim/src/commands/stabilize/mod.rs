@@ -4,6 +4,14 @@
 //! is taken to move like the last pair that was measured (the camera keeps its course), which
 //! keeps the path continuous. See [`crate::stabilize`] for the smoothing and the warp.
 
+mod path;
+mod stabilizer;
+mod warp;
+
+pub use path::PathPoint;
+pub use stabilizer::Stabilizer;
+pub use warp::warp_bilinear;
+
 use std::ffi::OsString;
 use std::path::PathBuf;
 
@@ -17,7 +25,6 @@ use crate::cli::values::{self, path};
 use crate::egomotion::{EstimatorSettings, MotionEstimator, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD};
 use crate::io::images::write_png;
 use crate::io::{create_output_dir, FrameSource, Progress};
-use crate::stabilize::Stabilizer;
 use crate::synth::Homography;
 use crate::Frame;
 

@@ -5,6 +5,21 @@
 //! OPTICAL_FLOW message (see [`crate::egomotion::MavlinkLink`]): the flow accumulator is read out
 //! after every pair, so each message integrates exactly one frame interval. A pair whose fit fails gets the identity homography, zero inliers and quality 0
 //! (the library's convention: no motion is claimed), never a stale model.
+//!
+//! The command's parts live beside it: the per-pair estimator (estimator.rs, with the
+//! defaults), gyro logs (gyro.rs), the frame clock (clock.rs) and the MAVLink link (link.rs).
+
+mod clock;
+mod estimator;
+mod gyro;
+mod link;
+
+pub use clock::{FrameClock, Pacer};
+pub use estimator::{
+    EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
+};
+pub use gyro::{GyroLog, GyroSample, GYRO_COLUMNS};
+pub use link::{MavlinkDestination, MavlinkLink, SendFailures};
 
 use std::ffi::OsString;
 use std::io::Write;
@@ -19,10 +34,6 @@ use kestrel::ego::ModelKind;
 use super::motion::input;
 use super::CommandError;
 use crate::cli::values::{self, path};
-use crate::egomotion::{
-    EstimatorSettings, FrameClock, GyroLog, MavlinkDestination, MavlinkLink, MotionEstimator,
-    Pacer, PairMotion, SendFailures, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
-};
 use crate::io::csv::CsvWriter;
 use crate::io::json::one_line;
 use crate::io::{AtomicFile, FrameSource, Progress};

@@ -147,6 +147,7 @@ fn usage_line(error: &clap::Error) -> String {
             format!("'{arg}': unexpected argument (flags start with --)")
         }
         ErrorKind::ArgumentConflict => format!("{flag}: given more than once"),
+        ErrorKind::TooManyValues => format!("{flag}: takes no value"),
         ErrorKind::MissingRequiredArgument => format!("{flag}: is required"),
         ErrorKind::InvalidSubcommand => {
             let command = context(ContextKind::InvalidSubcommand);
@@ -329,6 +330,11 @@ mod tests {
         assert_eq!(
             line(&format!("{track} --window 9 --window 7")),
             "--window: given more than once"
+        );
+        let flow = "flow --prev a --next b --points p --out o";
+        assert_eq!(
+            line(&format!("{flow} --reference=1")),
+            "--reference: takes no value"
         );
     }
 

@@ -9,11 +9,11 @@
 //! `frame,object,x,y,w,h,moves`: each object's box in each frame (pixel edges, not clipped to
 //! the frame) and 1 when it moves.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use host_sim::io::atomic::write_atomically;
+use host_sim::io::csv::CsvWriter;
 use host_sim::io::images::write_png;
 use host_sim::synth::objects::Scenario;
 
@@ -56,7 +56,8 @@ fn run(args: &[String]) -> Result<(), String> {
     let dir = PathBuf::from(out);
     let frames_dir = dir.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| format!("{out}: {e}"))?;
-    let mut truth = String::from("frame,object,x,y,w,h,moves\n");
+    let columns = ["frame", "object", "x", "y", "w", "h", "moves"];
+    let mut truth = CsvWriter::new(Vec::new(), &columns).map_err(|e| e.to_string())?;
     for k in 0..frames {
         write_png(
             &frames_dir.join(format!("frame_{k:04}.png")),
@@ -65,12 +66,11 @@ fn run(args: &[String]) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
         for (i, (b, object)) in sequence.boxes(k).iter().zip(sequence.objects()).enumerate() {
             let moves = u8::from(object.moves());
-            let _ = writeln!(
-                truth,
-                "{k},{i},{:.3},{:.3},{:.3},{:.3},{moves}",
-                b.x, b.y, b.w, b.h
-            );
+            let [x, y, w, h] = [b.x, b.y, b.w, b.h].map(|v| format!("{v:.3}"));
+            let row = (k, i, x, y, w, h, moves);
+            truth.record(row).map_err(|e| e.to_string())?;
         }
     }
-    write_atomically(&dir.join("truth.csv"), truth.as_bytes()).map_err(|e| e.to_string())
+    let truth = truth.finish().map_err(|e| e.to_string())?;
+    write_atomically(&dir.join("truth.csv"), &truth).map_err(|e| e.to_string())
 }

@@ -3,15 +3,15 @@
 
 pub mod cli;
 pub mod commands;
-pub mod dense;
-pub mod egomotion;
 pub mod frame;
 pub mod io;
 pub mod reference;
 pub mod sensor;
-pub mod stabilize;
 pub mod synth;
-pub mod tracking;
 pub mod viz;
 
 pub use frame::Frame;
+
+// The parts of the commands that tests, benchmarks and other commands use, at their short paths.
+pub use commands::track::tracking;
+pub use commands::{dense, egomotion, stabilize};

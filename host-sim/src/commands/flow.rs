@@ -3,16 +3,18 @@
 use std::io::{self, Write};
 use std::path::PathBuf;
 
-use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack, TrackStatus};
+use kestrel::lk::{scratch_len, Illumination, LkParams, LucasKanade, PointTrack, TrackStatus};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::{Point, Q16};
 
 use super::{check_same_size, time_core, CommandError};
+use crate::cli::values::{self, path};
 use crate::io::csv::{read_points, CsvWriter, Fixed4};
 use crate::io::images::read_grey;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::AtomicFile;
 use crate::{reference, Frame};
+use serde_json::json;
 
 /// Columns of the output file: the contract's six, then the status by name.
 pub const COLUMNS: [&str; 7] = ["x", "y", "nx", "ny", "ok", "err", "status"];
@@ -27,25 +29,107 @@ pub enum Engine {
     Reference,
 }
 
-/// Everything `flow` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim flow`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "track points from one frame to the next (sparse pyramidal Lucas-Kanade)",
+    before_help = "host-sim flow: track points from frame A to frame B with the library's Q16 pyramidal
+Lucas-Kanade (or the f32 reference).",
+    after_help = concat!("O.csv columns:
+  x,y      the input point
+  nx,ny    its position in B (the last estimate when ok is 0)
+  ok       1 when tracked; 0 when outside the image, too little texture or not converged
+  err      mean absolute intensity residual over the window, grey levels (0 when ok is 0)
+  status   tracked, out_of_bounds, low_texture or not_converged
+
+Coordinates are pixels from the centre of the top-left pixel, x right, y down.
+Nothing is written unless every step succeeds.
+
+", "Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line.")
+)]
 pub struct FlowOptions {
-    /// The first frame.
+    /// first frame: PNG, JPEG, PGM or BMP, converted to BT.601 grey
+    #[arg(long, value_name = "A", value_parser = path)]
     pub prev: PathBuf,
-    /// The second frame.
+    /// second frame, the same size as A
+    #[arg(long, value_name = "B", value_parser = path)]
     pub next: PathBuf,
-    /// CSV of the points to track.
+    /// points to track: a header line starting with x,y, then one point per line
+    #[arg(long, value_name = "P.csv", value_parser = path)]
     pub points: PathBuf,
-    /// CSV of the results.
+    /// results, one row per point in input order (see below)
+    #[arg(long, value_name = "O.csv", value_parser = path)]
     pub out: PathBuf,
-    /// Tracking parameters.
-    pub params: LkParams,
-    /// Which implementation runs.
-    pub engine: Engine,
-    /// How many times the core runs (at least 1).
+    /// window side in px, odd, 3 to 63
+    #[arg(long, value_name = "N", default_value_t = 21, value_parser = values::window)]
+    pub window: usize,
+    /// coarsest pyramid level, 0 to 7, like OpenCV's maxLevel
+    #[arg(long, value_name = "L", default_value_t = 3, value_parser = values::levels)]
+    pub levels: usize,
+    /// iterations per level, at least 1
+    #[arg(long, value_name = "K", default_value_t = 30, value_parser = max_iters)]
+    pub max_iters: u32,
+    /// stop when a step is shorter than E px, finite and >= 0
+    #[arg(long, value_name = "E", default_value_t = 0.01, value_parser = epsilon)]
+    pub epsilon: f32,
+    /// brightness model between the frames: gain-bias (fit a gain and a bias per window;
+    /// robust to exposure changes) or plain
+    #[arg(long, value_name = "M", default_value = "gain-bias", value_parser = illumination)]
+    pub illumination: Illumination,
+    /// run the f32 reference implementation instead of the library
+    #[arg(long)]
+    pub reference: bool,
+    /// run the core (build both pyramids, track every point) N times, N >= 1
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = values::repeat)]
     pub repeat: usize,
-    /// Where to write the timing summary, if anywhere.
+    /// write {"points": n, "repeat": N, "median_core_seconds": t}; decoding is not timed
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+}
+
+impl FlowOptions {
+    /// The LK parameters the flags give.
+    pub fn params(&self) -> LkParams {
+        LkParams {
+            window: self.window,
+            max_level: self.levels,
+            max_iterations: self.max_iters,
+            epsilon: self.epsilon,
+            illumination: self.illumination,
+            ..LkParams::default()
+        }
+    }
+
+    /// Which implementation runs.
+    pub fn engine(&self) -> Engine {
+        match self.reference {
+            true => Engine::Reference,
+            false => Engine::Library,
+        }
+    }
+}
+
+/// Iterations are a `u32` in the library.
+fn max_iters(text: &str) -> Result<u32, String> {
+    let range = |n| (1..=i64::from(u32::MAX)).contains(&n);
+    values::whole(text, range, "must be at least 1").map(|n| n as u32)
+}
+
+fn epsilon(text: &str) -> Result<f32, String> {
+    let finite = |e: f64| e.is_finite() && e >= 0.0;
+    values::number(text, finite, "must be a finite number >= 0").map(|e| e as f32)
+}
+
+/// `--illumination plain|gain-bias`, shared by every command that runs LK.
+pub fn illumination(text: &str) -> Result<Illumination, String> {
+    let names = [
+        ("plain", Illumination::Plain),
+        ("gain-bias", Illumination::GainBias),
+    ];
+    values::choice(text, &names)
 }
 
 /// One point's result, in the output file's units.
@@ -76,9 +160,9 @@ pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
     check_same_size(&options.prev, &options.next, &prev, &next)?;
     let points = read_points(&options.points)?;
 
-    let (flows, median_seconds) = match options.engine {
+    let (flows, median_seconds) = match options.engine() {
         Engine::Library => {
-            let mut tracker = LibraryTracker::new(&options.params, &prev, &points)?;
+            let mut tracker = LibraryTracker::new(&options.params(), &prev, &points)?;
             let ((), seconds) = time_core(options.repeat, || tracker.track(&prev, &next))?;
             (tracker.flows(), seconds)
         }
@@ -89,7 +173,7 @@ pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
                     &next,
                     &points,
                     None,
-                    &options.params,
+                    &options.params(),
                 ))
             })?;
             (tracks.iter().map(reference_flow).collect(), seconds)
@@ -98,11 +182,11 @@ pub fn run(options: &FlowOptions) -> Result<(), CommandError> {
 
     write_flow_csv(&mut out, &points, &flows).map_err(|e| out.write_error(&e))?;
     if let Some(stats) = &mut stats {
-        let summary = JsonObject::new()
-            .integer("points", points.len() as u64)
-            .integer("repeat", options.repeat as u64)
-            .number("median_core_seconds", median_seconds)
-            .finish();
+        let summary = one_line(&json!({
+            "points": points.len(),
+            "repeat": options.repeat,
+            "median_core_seconds": median_seconds,
+        }));
         stats
             .write_all(summary.as_bytes())
             .map_err(|e| stats.write_error(&e))?;
@@ -209,15 +293,15 @@ fn write_flow_csv(out: impl Write, points: &[(f32, f32)], flows: &[PointFlow]) -
     let mut csv = CsvWriter::new(out, &COLUMNS)?;
     for (&(x, y), flow) in points.iter().zip(flows) {
         let ok = u8::from(flow.status == TrackStatus::Tracked);
-        csv.record(&[
-            &Fixed4(f64::from(x)),
-            &Fixed4(f64::from(y)),
-            &Fixed4(flow.x),
-            &Fixed4(flow.y),
-            &ok,
-            &Fixed4(flow.residual),
-            &status_name(flow.status),
-        ])?;
+        csv.record((
+            Fixed4(f64::from(x)),
+            Fixed4(f64::from(y)),
+            Fixed4(flow.x),
+            Fixed4(flow.y),
+            ok,
+            Fixed4(flow.residual),
+            status_name(flow.status),
+        ))?;
     }
     Ok(())
 }

@@ -9,33 +9,130 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::mask::Structure;
+use kestrel::dense::motion::MotionParams;
+use kestrel::dense::regions::{BoxRules, MotionBox};
 
-use super::dense::refused;
+use super::dense::{refused, GridFlags};
 use super::{median, CommandError};
+use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
 use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
 use crate::io::csv::CsvWriter;
-use crate::io::json::JsonObject;
+use crate::io::images::write_rgb_png;
+use crate::io::json::one_line;
 use crate::io::{create_output_dir, AtomicFile, FrameSource, OutputError, Progress};
 use crate::Frame;
+use serde_json::json;
 
 /// Columns of boxes.csv: the contract's five, then the region's size in grid nodes.
 pub const COLUMNS: [&str; 6] = ["frame", "x", "y", "w", "h", "nodes"];
 
-/// Everything `motion` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim motion`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "boxes around what moves in a sequence, the camera's own motion removed",
+    before_help = "host-sim motion: moving objects in a sequence. Between each frame and the one before it: the
+library's grid flow, the camera's motion fitted to it and removed (a still camera needs no
+flag: its motion fits to nearly zero), the nodes that still move, their connected regions,
+and a box around each.",
+    after_help = "boxes.csv columns:
+  frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
+             more)
+  x,y,w,h    the box in that frame: left column, top row, width and height in whole pixels
+  nodes      the region's size in grid nodes
+
+A bad frame stops the run: the boxes of the frames before it are written, and the error names
+the frame. Progress is shown on stderr when it is a terminal.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line."
+)]
 pub struct MotionOptions {
-    /// The sequence: a directory, a `.y4m` file, or `-` for y4m on standard input.
+    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file, or - for
+    /// y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - | host-sim motion - ...)
+    #[arg(value_name = "INPUT", value_parser = input)]
     pub input: OsString,
-    /// CSV of the boxes.
+    /// one row per box (see below)
+    #[arg(long, value_name = "boxes.csv", value_parser = path)]
     pub out: PathBuf,
-    /// Directory for the pictures, if any.
+    /// one PNG per frame from the second on, frame_NNNNNN.png: the frame with the moving grid
+    /// cells tinted red and the boxes outlined in green
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub viz: Option<PathBuf>,
-    /// Every setting of the pipeline.
-    pub settings: MotionSettings,
-    /// Where to write the timing summary, if anywhere.
+    /// write {"frames": n, "median_frame_seconds": t}: the library's time per frame (pyramid,
+    /// grid flow, camera motion, mask, boxes), decoding excluded
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+    #[command(flatten)]
+    pub grid: GridFlags,
+    /// a node moves when its flow differs from the camera's by more than PX, finite and > 0
+    #[arg(long, value_name = "PX", default_value_t = 0.8, value_parser = threshold)]
+    pub threshold: f32,
+    /// smallest region reported, in grid nodes, N >= 1
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = min_nodes)]
+    pub min_nodes: u32,
+    /// close the mask with an N x N square first: 0 (no closing), 2 or 3
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = structure)]
+    pub close: u8,
+    /// then open it with an N x N square: 0 (no opening), 2 or 3
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = structure)]
+    pub open: u8,
+}
+
+impl MotionOptions {
+    /// Every setting of the pipeline.
+    pub fn settings(&self) -> MotionSettings {
+        let defaults = MotionParams::default();
+        MotionSettings {
+            dense: self.grid.params(),
+            motion: MotionParams {
+                threshold: self.threshold,
+                close: square(self.close),
+                open: square(self.open),
+                boxes: BoxRules {
+                    min_nodes: self.min_nodes,
+                    ..defaults.boxes
+                },
+                ..defaults
+            },
+            ..MotionSettings::default()
+        }
+    }
+}
+
+fn threshold(text: &str) -> Result<f32, String> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    values::number(text, positive, "must be a finite number > 0").map(|v| v as f32)
+}
+
+fn min_nodes(text: &str) -> Result<u32, String> {
+    let range = |n| (1..=i64::from(u32::MAX)).contains(&n);
+    values::whole(text, range, "must be at least 1").map(|n| n as u32)
+}
+
+fn structure(text: &str) -> Result<u8, String> {
+    let sides = |n| matches!(n, 0 | 2 | 3);
+    values::whole(text, sides, "must be 0 (none), 2 or 3").map(|n| n as u8)
+}
+
+/// The square of side `n` (`--close`, `--open`), none for 0.
+fn square(n: u8) -> Option<Structure> {
+    match n {
+        2 => Some(Structure::Square2),
+        3 => Some(Structure::Square3),
+        _ => None,
+    }
+}
+
+/// The INPUT argument of the sequence commands, which must not be empty.
+pub fn input(text: &str) -> Result<OsString, String> {
+    match text.is_empty() {
+        true => Err("must not be empty: a directory of frames, a .y4m file, or -".into()),
+        false => Ok(OsString::from(text)),
+    }
 }
 
 /// Runs `motion`. A bad frame stops the run; the boxes of the frames before it are written,
@@ -61,14 +158,14 @@ pub fn run(options: &MotionOptions) -> Result<(), CommandError> {
     }
 
     if pass.frames > 0 {
-        out.write_all(&csv.into_inner())
-            .map_err(|e| out.write_error(&e))?;
+        let rows = csv.finish().map_err(|e| out.write_error(&e))?;
+        out.write_all(&rows).map_err(|e| out.write_error(&e))?;
         out.commit()?;
         if let Some(mut stats) = stats.take() {
-            let summary = JsonObject::new()
-                .integer("frames", pass.frames as u64)
-                .number("median_frame_seconds", median(&mut pass.seconds))
-                .finish();
+            let summary = one_line(&json!({
+                "frames": pass.frames,
+                "median_frame_seconds": median(&mut pass.seconds),
+            }));
             stats
                 .write_all(summary.as_bytes())
                 .map_err(|e| stats.write_error(&e))?;
@@ -101,12 +198,11 @@ fn detect(
     for (index, frame) in source.enumerate() {
         let frame = frame?;
         let (width, height) = (frame.width, frame.height);
-        let refused = |e| refused(e, &options.settings.dense, Path::new(name), (width, height));
+        let settings = options.settings();
+        let refused = |e| refused(e, &settings.dense, Path::new(name), (width, height));
         let runner = match &mut runner {
             Some(runner) => runner,
-            None => {
-                runner.insert(MotionRunner::new(options.settings, width, height).map_err(refused)?)
-            }
+            None => runner.insert(MotionRunner::new(settings, width, height).map_err(refused)?),
         };
         // The pictures need the later frame after the runner took it.
         let later = options.viz.as_ref().map(|_| frame.clone());
@@ -133,7 +229,7 @@ fn detect(
 /// One row per box, `frame` being the later frame of the pair.
 fn write_boxes(csv: &mut CsvWriter<Vec<u8>>, frame: usize, boxes: &[MotionBox]) -> io::Result<()> {
     for b in boxes {
-        csv.record(&[&frame, &b.x, &b.y, &b.w, &b.h, &b.nodes])?;
+        csv.record((frame, b.x, b.y, b.w, b.h, b.nodes))?;
     }
     Ok(())
 }
@@ -147,6 +243,6 @@ fn write_picture(
     found: &MotionFrame,
     boxes: &[MotionBox],
 ) -> Result<(), OutputError> {
-    let canvas = motion_overlay(later, runner.layout(), runner.nodes(), &found.mask, boxes);
-    canvas.write_png(&dir.join(format!("frame_{index:06}.png")))
+    let picture = motion_overlay(later, runner.layout(), runner.nodes(), &found.mask, boxes);
+    write_rgb_png(&dir.join(format!("frame_{index:06}.png")), &picture)
 }

@@ -5,39 +5,150 @@
 //! centre), optionally with a brightness gain and bias and sensor noise. The points are the
 //! textured nodes of a grid whose true positions stay inside the second frame.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use super::CommandError;
+use crate::cli::values::{self, path};
 use crate::io::atomic::write_atomically;
 use crate::io::create_output_dir;
+use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::synth::{
     grid_points, pair_with_lighting, textured_points, true_position, Homography, Lighting,
     SceneSpec, SplitMix64,
 };
 
-/// Everything `synth` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim synth`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "write seeded synthetic frame pairs with exact ground truth",
+    before_help = "host-sim synth: write seeded synthetic frame pairs with exact ground truth.
+
+Each pair is a procedural scene and the same scene under a known warp: a translation in a
+random direction up to --max-shift px, a rotation within 1 degree and a zoom within 2% about
+the centre.",
+    after_help = "Files in DIR, for each pair NNN:
+  pairNNN_a.png, pairNNN_b.png   the two frames (8-bit grey)
+  pairNNN_points.csv             x,y: points to track, for 'host-sim flow --points'
+  pairNNN_truth.csv              x,y,tx,ty: each point and its true position in frame b
+  manifest.csv                   pair,a,b,points,truth,dx,dy,angle_deg,scale,gain,bias
+
+Exit status: 0 success; 1 an output that cannot be written; 2 bad command line."
+)]
 pub struct SynthOptions {
-    /// Output directory (created if missing).
+    /// output directory, created if missing
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub out: PathBuf,
-    /// Number of pairs.
+    /// number of pairs, 1 to 1000
+    #[arg(long, value_name = "N", default_value_t = 10, value_parser = pairs)]
     pub pairs: usize,
-    /// Frame width in px.
+    /// frame width, 16 to 4096 px
+    #[arg(long, value_name = "W", default_value_t = 320, value_parser = size)]
     pub width: usize,
-    /// Frame height in px.
+    /// frame height, 16 to 4096 px
+    #[arg(long, value_name = "H", default_value_t = 240, value_parser = size)]
     pub height: usize,
-    /// Seed of the whole set.
+    /// seed of the whole set, a whole number >= 0
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = seed)]
     pub seed: u64,
-    /// Largest translation, px.
+    /// largest translation, 0 to 100 px
+    #[arg(long, value_name = "PX", default_value_t = 20.0, value_parser = shift)]
     pub max_shift: f64,
-    /// Brightness change of the second frame.
-    pub lighting: Lighting,
-    /// Sensor noise, grey levels (standard deviation).
+    /// brightness gain of the second frame, 0.1 to 10
+    #[arg(long, value_name = "G", default_value_t = 1.0, value_parser = gain)]
+    pub gain: f64,
+    /// brightness bias of the second frame, -255 to 255 grey levels
+    #[arg(long, value_name = "B", default_value_t = 0.0, value_parser = bias)]
+    pub bias: f64,
+    /// sensor noise, 0 to 50 grey levels
+    #[arg(long, value_name = "SIGMA", default_value_t = 1.5, value_parser = noise)]
     pub noise: f64,
-    /// At most this many points per pair.
+    /// at most N textured points per pair, 1 to 100000
+    #[arg(long, value_name = "N", default_value_t = 300, value_parser = points)]
     pub points: usize,
+}
+
+impl SynthOptions {
+    /// The brightness change of the second frame.
+    fn lighting(&self) -> Lighting {
+        Lighting {
+            gain: self.gain,
+            bias: self.bias,
+        }
+    }
+}
+
+fn pairs(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=1000).contains(&n);
+    values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
+}
+
+/// A frame side, shared with `synth-sequence`.
+pub fn size(text: &str) -> Result<usize, String> {
+    let range = |n| (16..=4096).contains(&n);
+    values::whole(text, range, "must be between 16 and 4096").map(|n| n as usize)
+}
+
+/// A seed, shared with `synth-sequence`.
+pub fn seed(text: &str) -> Result<u64, String> {
+    values::whole(text, |n| n >= 0, "must be a whole number >= 0").map(|n| n as u64)
+}
+
+fn shift(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.0..=100.0).contains(&v),
+        "must be between 0 and 100",
+    )
+}
+
+fn gain(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.1..=10.0).contains(&v),
+        "must be between 0.1 and 10",
+    )
+}
+
+fn bias(text: &str) -> Result<f64, String> {
+    let range = |v| (-255.0..=255.0).contains(&v);
+    values::number(text, range, "must be between -255 and 255")
+}
+
+/// Sensor noise, shared with `synth-sequence`.
+pub fn noise(text: &str) -> Result<f64, String> {
+    values::number(
+        text,
+        |v| (0.0..=50.0).contains(&v),
+        "must be between 0 and 50",
+    )
+}
+
+fn points(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=100_000).contains(&n);
+    values::whole(text, range, "must be between 1 and 100000").map(|n| n as usize)
+}
+
+/// Columns of manifest.csv.
+const MANIFEST_COLUMNS: [&str; 11] = [
+    "pair",
+    "a",
+    "b",
+    "points",
+    "truth",
+    "dx",
+    "dy",
+    "angle_deg",
+    "scale",
+    "gain",
+    "bias",
+];
+
+/// Writing CSV into memory fails only on a bug.
+fn text_error(error: std::io::Error) -> CommandError {
+    CommandError::Processing(format!("cannot format CSV: {error}"))
 }
 
 /// Smallest structure-tensor eigenvalue per pixel (grey levels per pixel, squared) for a grid
@@ -58,26 +169,28 @@ struct GeneratedPair {
 /// Runs `synth`.
 pub fn run(options: &SynthOptions) -> Result<(), CommandError> {
     create_output_dir(&options.out)?;
-    let mut manifest = String::from("pair,a,b,points,truth,dx,dy,angle_deg,scale,gain,bias\n");
+    let mut manifest = CsvWriter::new(Vec::new(), &MANIFEST_COLUMNS).map_err(text_error)?;
     for index in 0..options.pairs {
         let names = PairNames::new(index);
         let generated = write_pair(options, index, &names)?;
-        let _ = writeln!(
-            manifest,
-            "{index},{},{},{},{},{:.4},{:.4},{:.4},{:.5},{},{}",
-            names.a,
-            names.b,
-            names.points,
-            names.truth,
-            generated.shift.0,
-            generated.shift.1,
-            generated.angle_deg,
-            generated.scale,
-            options.lighting.gain,
-            options.lighting.bias,
+        let (shift, angle, scale) = (generated.shift, generated.angle_deg, generated.scale);
+        let row = (
+            index,
+            &names.a,
+            &names.b,
+            &names.points,
+            &names.truth,
+            format!("{:.4}", shift.0),
+            format!("{:.4}", shift.1),
+            format!("{angle:.4}"),
+            format!("{scale:.5}"),
+            options.gain,
+            options.bias,
         );
+        manifest.record(row).map_err(text_error)?;
     }
-    write_atomically(&options.out.join("manifest.csv"), manifest.as_bytes())?;
+    let manifest = manifest.finish().map_err(text_error)?;
+    write_atomically(&options.out.join("manifest.csv"), &manifest)?;
     Ok(())
 }
 
@@ -112,17 +225,21 @@ fn write_pair(
     )
     .with_noise(options.noise);
     let generated = generate(options, index, &spec);
-    let (a, b) = pair_with_lighting(&spec, &generated.warp, options.lighting);
+    let (a, b) = pair_with_lighting(&spec, &generated.warp, options.lighting());
     let dir = &options.out;
     write_png(&dir.join(&names.a), &a)?;
     write_png(&dir.join(&names.b), &b)?;
-    let (mut points, mut truth) = (String::from("x,y\n"), String::from("x,y,tx,ty\n"));
+    let mut points = CsvWriter::new(Vec::new(), &["x", "y"]).map_err(text_error)?;
+    let mut truth = CsvWriter::new(Vec::new(), &["x", "y", "tx", "ty"]).map_err(text_error)?;
     for &((x, y), (tx, ty)) in &generated.points {
-        let _ = writeln!(points, "{x},{y}");
-        let _ = writeln!(truth, "{x},{y},{tx:.5},{ty:.5}");
+        points.record((x, y)).map_err(text_error)?;
+        let row = (x, y, format!("{tx:.5}"), format!("{ty:.5}"));
+        truth.record(row).map_err(text_error)?;
     }
-    write_atomically(&dir.join(&names.points), points.as_bytes())?;
-    write_atomically(&dir.join(&names.truth), truth.as_bytes())?;
+    let points = points.finish().map_err(text_error)?;
+    let truth = truth.finish().map_err(text_error)?;
+    write_atomically(&dir.join(&names.points), &points)?;
+    write_atomically(&dir.join(&names.truth), &truth)?;
     Ok(generated)
 }
 

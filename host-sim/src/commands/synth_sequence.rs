@@ -6,37 +6,90 @@
 //! body rates, sampled every millisecond from frame 0 to the last frame, in the layout
 //! `egomotion --gyro` reads).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use super::egomotion::fps;
+use super::synth::{noise, seed, size};
 use super::CommandError;
+use crate::cli::values::{self, path};
 use crate::egomotion::FrameClock;
+use crate::egomotion::GYRO_COLUMNS;
 use crate::io::atomic::write_atomically;
+use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::io::{create_output_dir, Progress};
 use crate::synth::{FlightPath, FlightSequence, SceneSpec};
 
-/// Everything `synth-sequence` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim synth-sequence`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "write a seeded synthetic flight with exact homographies and gyro",
+    before_help = "host-sim synth-sequence: write a seeded synthetic flight over textured ground, with the exact
+homography of every frame pair and, when the camera turns at a constant rate, its gyro log.
+
+The camera looks down at a plane with a 60 degree horizontal field of view. Paths:
+  pan          translation parallel to the ground (the image shifts)
+  yaw          turning about the optical axis while drifting (the image turns)
+  climb        moving towards or away from the ground while drifting (the image zooms)
+  perspective  a tilted ground, turning and moving along every axis (a full homography)
+  rotation     turning about every axis without moving (a gyro predicts it all)
+  shake        hovering with a slow drift and a random tremor in every frame",
+    after_help = "Files in DIR:
+  frames/frame_NNNNN.png   the frames (8-bit grey), for 'host-sim egomotion DIR/frames'
+  truth.csv                frame,h11,...,h33: the exact homography from frame-1 to frame
+  gyro.csv                 t_us,gx,gy,gz: the exact body rates every millisecond, for
+                           'egomotion --gyro' (all paths but shake)
+
+Exit status: 0 success; 1 an output that cannot be written; 2 bad command line."
+)]
 pub struct SynthSequenceOptions {
-    /// Output directory (created if missing).
+    /// output directory, created if missing
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub out: PathBuf,
-    /// The camera's path.
+    /// one of the paths above
+    #[arg(long, value_name = "P", default_value = "pan", value_parser = flight_path)]
     pub path: FlightPath,
-    /// Number of frames, at least 2.
+    /// number of frames, 2 to 10000
+    #[arg(long, value_name = "N", default_value_t = 30, value_parser = frames)]
     pub frames: usize,
-    /// Frame width in px.
+    /// frame width, 16 to 4096 px
+    #[arg(long, value_name = "W", default_value_t = 320, value_parser = size)]
     pub width: usize,
-    /// Frame height in px.
+    /// frame height, 16 to 4096 px
+    #[arg(long, value_name = "H", default_value_t = 240, value_parser = size)]
     pub height: usize,
-    /// Seed of the scene, the path and the objects.
+    /// seed of the scene, the path and the objects, >= 0
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = seed)]
     pub seed: u64,
-    /// Independently moving objects drawn over the scene.
+    /// independently moving textured rectangles, each covering 12% of the frame, 0 to 4 (2
+    /// make 20-30% of the tracks outliers)
+    #[arg(long, value_name = "K", default_value_t = 0, value_parser = objects)]
     pub objects: usize,
-    /// Sensor noise, grey levels (standard deviation).
+    /// sensor noise, 0 to 50 grey levels
+    #[arg(long, value_name = "SIGMA", default_value_t = 1.0, value_parser = noise)]
     pub noise: f64,
-    /// Frame rate, for the gyro log's clock.
+    /// frame rate of the gyro log's clock, 1 to 10000
+    #[arg(long, value_name = "F", default_value_t = 30.0, value_parser = fps)]
     pub fps: f64,
+}
+
+fn frames(text: &str) -> Result<usize, String> {
+    let range = |n| (2..=10_000).contains(&n);
+    values::whole(text, range, "must be between 2 and 10000").map(|n| n as usize)
+}
+
+fn objects(text: &str) -> Result<usize, String> {
+    let range = |n| (0..=4).contains(&n);
+    values::whole(text, range, "must be between 0 and 4").map(|n| n as usize)
+}
+
+fn flight_path(text: &str) -> Result<FlightPath, String> {
+    FlightPath::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = FlightPath::ALL.iter().map(|p| p.name()).collect();
+        format!("must be one of {} (got \"{text}\")", names.join(", "))
+    })
 }
 
 /// Gyro samples per second in gyro.csv.
@@ -77,27 +130,33 @@ pub fn frame_name(k: usize) -> String {
 
 /// `frame,h11,...,h33`: the homography from frame-1 to frame for every pair, exact to f64.
 fn truth_csv(sequence: &FlightSequence, frames: usize) -> String {
-    let mut text = String::from("frame,h11,h12,h13,h21,h22,h23,h31,h32,h33\n");
+    let mut csv = CsvWriter::new(Vec::new(), &TRUTH_COLUMNS).expect("CSV into memory");
     for k in 1..frames {
         let m = sequence.flight().pair_homography(k).m;
         let entries: Vec<String> = m.iter().flatten().map(|v| format!("{v:e}")).collect();
-        let _ = writeln!(text, "{k},{}", entries.join(","));
+        csv.record((k, entries)).expect("CSV into memory");
     }
-    text
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
 }
+
+/// Columns of truth.csv: ego.csv's first ten.
+const TRUTH_COLUMNS: [&str; 10] = [
+    "frame", "h11", "h12", "h13", "h21", "h22", "h23", "h31", "h32", "h33",
+];
 
 /// `t_us,gx,gy,gz` every millisecond from 0 to `end_us` (and at `end_us`), constant `rates`.
 fn gyro_csv(rates: [f64; 3], end_us: u64) -> String {
     let step = 1_000_000 / GYRO_RATE_HZ;
-    let mut text = String::from("t_us,gx,gy,gz\n");
+    let mut csv = CsvWriter::new(Vec::new(), &GYRO_COLUMNS).expect("CSV into memory");
     let mut times: Vec<u64> = (0..=end_us).step_by(step as usize).collect();
     if times.last() != Some(&end_us) {
         times.push(end_us);
     }
+    let rates = rates.map(|r| format!("{r:e}"));
     for t in times {
-        let _ = writeln!(text, "{t},{:e},{:e},{:e}", rates[0], rates[1], rates[2]);
+        csv.record((t, &rates)).expect("CSV into memory");
     }
-    text
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
 }
 
 #[cfg(test)]

@@ -1,27 +1,22 @@
 //! Output files that appear complete or not at all.
 //!
-//! An [`AtomicFile`] writes to a temporary file beside the target and renames it over the target
-//! on [`AtomicFile::commit`]; a rename within one directory is atomic, so readers (and scripts
-//! that test for the file) never see a half-written output. Dropping an uncommitted file removes
-//! the temporary, so a command that fails leaves nothing behind.
+//! An [`AtomicFile`] writes to a temporary file (tempfile's) beside the target and renames it
+//! over the target on [`AtomicFile::commit`]; a rename within one directory is atomic, so
+//! readers (and scripts that test for the file) never see a half-written output. Dropping an
+//! uncommitted file removes the temporary, so a command that fails leaves nothing behind.
 
-use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+
+use tempfile::NamedTempFile;
 
 use super::{describe_io_error, OutputError};
-
-/// Distinguishes temporaries of one process that target the same name.
-static TEMP_COUNTER: AtomicUsize = AtomicUsize::new(0);
 
 /// A file being written to a temporary beside its target path.
 #[derive(Debug)]
 pub struct AtomicFile {
     target: PathBuf,
-    temp: PathBuf,
-    /// `None` once committed.
-    writer: Option<BufWriter<File>>,
+    writer: BufWriter<NamedTempFile>,
 }
 
 impl AtomicFile {
@@ -40,33 +35,29 @@ impl AtomicFile {
             Some(parent) if !parent.as_os_str().is_empty() => parent,
             _ => Path::new("."),
         };
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(name);
-        temp_name.push(format!(
-            ".{}-{}.tmp",
-            std::process::id(),
-            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let temp = directory.join(temp_name);
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp)
-            .map_err(|e| match e.kind() {
-                // The temporary's name would only confuse: say what the user can fix.
-                io::ErrorKind::NotFound => OutputError::new(
-                    target,
-                    format!(
-                        "cannot write: directory {} does not exist",
-                        directory.display()
-                    ),
+        let mut prefix = std::ffi::OsString::from(".");
+        prefix.push(name);
+        prefix.push(".");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        // tempfile makes its files private (0600); outputs are ordinary files, readable by all
+        // like those of `cp` under the usual umask.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
+        let temp = builder.tempfile_in(directory).map_err(|e| match e.kind() {
+            // The temporary's name would only confuse: say what the user can fix.
+            io::ErrorKind::NotFound => OutputError::new(
+                target,
+                format!(
+                    "cannot write: directory {} does not exist",
+                    directory.display()
                 ),
-                _ => OutputError::new(target, format!("cannot write: {}", describe_io_error(&e))),
-            })?;
+            ),
+            _ => OutputError::new(target, format!("cannot write: {}", describe_io_error(&e))),
+        })?;
         Ok(Self {
             target: target.to_path_buf(),
-            temp,
-            writer: Some(BufWriter::new(file)),
+            writer: BufWriter::new(temp),
         })
     }
 
@@ -83,46 +74,27 @@ impl AtomicFile {
         )
     }
 
-    /// Flushes the data to disk and renames the temporary over the target.
-    pub fn commit(mut self) -> Result<(), OutputError> {
-        let Some(writer) = self.writer.take() else {
-            return Ok(());
+    /// Flushes the data to disk and renames the temporary over the target. On an error the
+    /// temporary is removed (nothing useful is left in it).
+    pub fn commit(self) -> Result<(), OutputError> {
+        let target = self.target;
+        let error = |e: &io::Error| {
+            OutputError::new(&target, format!("cannot write: {}", describe_io_error(e)))
         };
-        let finished = writer
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .and_then(|file| file.sync_all())
-            .and_then(|()| fs::rename(&self.temp, &self.target));
-        finished.map_err(|e| {
-            // Nothing useful is left in the temporary; the error is what matters.
-            let _ = fs::remove_file(&self.temp);
-            self.write_error(&e)
-        })
+        let temp = self.writer.into_inner().map_err(|e| error(e.error()))?;
+        temp.as_file().sync_all().map_err(|e| error(&e))?;
+        temp.persist(&target).map_err(|e| error(&e.error))?;
+        Ok(())
     }
 }
 
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        match &mut self.writer {
-            Some(writer) => writer.write(buf),
-            None => Err(io::Error::other("file already committed")),
-        }
+        self.writer.write(buf)
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        match &mut self.writer {
-            Some(writer) => writer.flush(),
-            None => Ok(()),
-        }
-    }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            // Best effort: the command is already failing for another reason.
-            let _ = fs::remove_file(&self.temp);
-        }
+        self.writer.flush()
     }
 }
 
@@ -136,6 +108,7 @@ pub fn write_atomically(target: &Path, contents: &[u8]) -> Result<(), OutputErro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     fn scratch_dir(name: &str) -> PathBuf {
         let dir =

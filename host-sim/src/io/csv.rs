@@ -1,9 +1,12 @@
-//! CSV as the contract defines it: a header line, comma separators, `.` decimal point, one record
-//! per line. Fields are never quoted: every column Kestrel reads or writes is a number or a name.
+//! CSV as the contract defines it (a header line, comma separators, `.` decimal point, one
+//! record per line), read and written with the `csv` crate and serde. What is kept here is the
+//! contract's error wording: a bad file is named to its line, column and header name.
 
 use std::fmt::Display;
 use std::io::{self, Write};
 use std::path::Path;
+
+use serde::{Serialize, Serializer};
 
 use super::{describe_io_error, InputError, Place};
 
@@ -16,9 +19,9 @@ pub fn read_points(path: &Path) -> Result<Vec<(f32, f32)>, InputError> {
 
 /// Parses the text of a points file named `input` (see [`read_points`]).
 pub fn parse_points(text: &str, input: &str) -> Result<Vec<(f32, f32)>, InputError> {
-    let table = Table::parse(text, input, &["x", "y"])?;
+    let table = Table::read(text, input, &["x", "y"])?;
     table
-        .records()
+        .records
         .iter()
         .map(|record| {
             let x = table.value(record, 0, parse_coordinate)?;
@@ -35,13 +38,111 @@ pub fn read_text(path: &Path) -> Result<String, InputError> {
     String::from_utf8(bytes).map_err(|_| InputError::file(path, "not a text file (invalid UTF-8)"))
 }
 
-/// One coordinate: a finite decimal number, surrounding spaces allowed.
+/// A CSV file read by the csv crate: its header, which must start with the expected columns
+/// (more may follow), and its records, each as long as the header. Fields are trimmed, blank
+/// lines skipped, a UTF-8 byte order mark allowed.
+///
+/// Fields are converted one by one ([`Table::value`]) rather than by serde's derive: the csv
+/// crate does not say which column a field's own deserialization error came from, and the
+/// contract's messages name the line, the column and its header.
+#[derive(Debug, Clone)]
+pub struct Table {
+    input: String,
+    header: csv::StringRecord,
+    /// The records, in file order.
+    pub records: Vec<csv::StringRecord>,
+}
+
+impl Table {
+    /// Reads `text`, the contents of the file `input`, whose header must start with `columns`.
+    pub fn read(text: &str, input: &str, columns: &[&str]) -> Result<Self, InputError> {
+        let expected = columns.join(",");
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let header = reader.headers().map_err(|e| csv_error(input, &e))?.clone();
+        if header.is_empty() {
+            let problem = format!("empty file; expected a header line \"{expected}\"");
+            return Err(InputError::new(input, problem));
+        }
+        if header.len() < columns.len() || !header.iter().zip(columns).all(|(h, c)| h == *c) {
+            let found: Vec<&str> = header.iter().collect();
+            let problem = format!(
+                "expected a header starting with \"{expected}\", found \"{}\"",
+                found.join(",")
+            );
+            return Err(InputError::new(input, problem).at(Place::Line(1)));
+        }
+        let records = reader
+            .records()
+            .collect::<Result<_, _>>()
+            .map_err(|e| csv_error(input, &e))?;
+        Ok(Self {
+            input: input.to_owned(),
+            header,
+            records,
+        })
+    }
+
+    /// The line of `record`, from 1 (the header is line 1).
+    pub fn line(record: &csv::StringRecord) -> usize {
+        record.position().map_or(0, |p| p.line() as usize)
+    }
+
+    /// A problem with the field in `column` (from 0) of `record`, naming line, column and
+    /// header name.
+    pub fn cell_error(
+        &self,
+        record: &csv::StringRecord,
+        column: usize,
+        problem: String,
+    ) -> InputError {
+        let cell = Place::Cell {
+            line: Self::line(record),
+            column: column + 1,
+            name: self.header.get(column).unwrap_or("").to_owned(),
+        };
+        InputError::new(&self.input, problem).at(cell)
+    }
+
+    /// The field in `column` of `record` read by `parse` (such as [`parse_finite`]), or the
+    /// problem located at its cell.
+    pub fn value<T>(
+        &self,
+        record: &csv::StringRecord,
+        column: usize,
+        parse: impl Fn(&str) -> Result<T, String>,
+    ) -> Result<T, InputError> {
+        let field = record.get(column).unwrap_or("");
+        parse(field).map_err(|problem| self.cell_error(record, column, problem))
+    }
+}
+
+/// A csv error other than a field's: a record of the wrong length, a stray byte.
+fn csv_error(input: &str, error: &csv::Error) -> InputError {
+    match error.kind() {
+        csv::ErrorKind::UnequalLengths {
+            pos,
+            expected_len,
+            len,
+        } => {
+            let problem = format!("expected {expected_len} fields like the header, found {len}");
+            let line = pos.as_ref().map_or(0, |p| p.line() as usize);
+            InputError::new(input, problem).at(Place::Line(line))
+        }
+        csv::ErrorKind::Utf8 { pos, .. } => {
+            let line = pos.as_ref().map_or(0, |p| p.line() as usize);
+            InputError::new(input, "not a text file (invalid UTF-8)").at(Place::Line(line))
+        }
+        _ => InputError::new(input, error.to_string()),
+    }
+}
+
+/// One coordinate: a finite decimal number (as an `f32` too: `1e39` is not).
 fn parse_coordinate(field: &str) -> Result<f32, String> {
-    let trimmed = field.trim();
-    match trimmed.parse::<f32>() {
-        Ok(value) if value.is_finite() => Ok(value),
-        Ok(_) => Err(format!("\"{trimmed}\" is not a finite number")),
-        Err(_) => Err(format!("\"{trimmed}\" is not a number")),
+    match parse_number(field)? as f32 {
+        value if value.is_finite() => Ok(value),
+        _ => Err(format!("\"{}\" is not a finite number", field.trim())),
     }
 }
 
@@ -61,143 +162,36 @@ pub fn parse_finite(field: &str) -> Result<f64, String> {
     }
 }
 
-/// One data line of a CSV file.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Record<'a> {
-    /// Line number, from 1 (the header is line 1).
-    pub line: usize,
-    fields: Vec<&'a str>,
-}
-
-impl<'a> Record<'a> {
-    /// The field in `column` (from 0); every record has one per header column.
-    pub fn field(&self, column: usize) -> &'a str {
-        self.fields.get(column).copied().unwrap_or("")
-    }
-}
-
-/// A CSV text split into its header and records: the header must start with the expected
-/// columns (more may follow), every record must have as many fields as the header, and blank
-/// lines are skipped. A UTF-8 byte order mark is allowed.
-#[derive(Debug, Clone)]
-pub struct Table<'a> {
-    input: String,
-    header: Vec<&'a str>,
-    records: Vec<Record<'a>>,
-}
-
-impl<'a> Table<'a> {
-    /// Splits `text`, the contents of the file `input`, whose header must start with `columns`.
-    pub fn parse(text: &'a str, input: &str, columns: &[&str]) -> Result<Self, InputError> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let expected = columns.join(",");
-        let mut lines = text.lines().enumerate().map(|(i, line)| (i + 1, line));
-        let header: Vec<&str> = match lines.next() {
-            Some((_, line)) => line.split(',').map(str::trim).collect(),
-            None => {
-                let problem = format!("empty file; expected a header line \"{expected}\"");
-                return Err(InputError::new(input, problem));
-            }
-        };
-        if !header.starts_with(columns) {
-            let problem = format!(
-                "expected a header starting with \"{expected}\", found \"{}\"",
-                header.join(",")
-            );
-            return Err(InputError::new(input, problem).at(Place::Line(1)));
-        }
-        let mut records = Vec::new();
-        for (line, text) in lines {
-            if text.trim().is_empty() {
-                continue;
-            }
-            let fields: Vec<&str> = text.split(',').collect();
-            if fields.len() != header.len() {
-                let problem = format!(
-                    "expected {} fields like the header, found {}",
-                    header.len(),
-                    fields.len()
-                );
-                return Err(InputError::new(input, problem).at(Place::Line(line)));
-            }
-            records.push(Record { line, fields });
-        }
-        Ok(Self {
-            input: input.to_owned(),
-            header,
-            records,
-        })
-    }
-
-    /// The records, in file order.
-    pub fn records(&self) -> &[Record<'a>] {
-        &self.records
-    }
-
-    /// A problem with the field in `column` (from 0) of `record`, naming line, column and
-    /// header name.
-    pub fn cell_error(&self, record: &Record<'_>, column: usize, problem: String) -> InputError {
-        let cell = Place::Cell {
-            line: record.line,
-            column: column + 1,
-            name: self.header.get(column).copied().unwrap_or("").to_owned(),
-        };
-        InputError::new(&self.input, problem).at(cell)
-    }
-
-    /// The field in `column` of `record` read by `parse` (such as [`parse_finite`]), or the
-    /// problem located at its cell.
-    pub fn value<T>(
-        &self,
-        record: &Record<'_>,
-        column: usize,
-        parse: impl Fn(&str) -> Result<T, String>,
-    ) -> Result<T, InputError> {
-        parse(record.field(column)).map_err(|problem| self.cell_error(record, column, problem))
-    }
-}
-
-/// Writes CSV records with a fixed number of columns.
+/// Writes CSV records, each a tuple or struct serde serializes, after a header written at once
+/// (a file with no records still has its header).
 #[derive(Debug)]
 pub struct CsvWriter<W: Write> {
-    out: W,
-    columns: usize,
+    out: csv::Writer<W>,
 }
 
 impl<W: Write> CsvWriter<W> {
     /// Starts a file by writing its header line.
-    pub fn new(mut out: W, header: &[&str]) -> io::Result<Self> {
-        writeln!(out, "{}", header.join(","))?;
-        Ok(Self {
-            out,
-            columns: header.len(),
-        })
+    pub fn new(out: W, header: &[&str]) -> io::Result<Self> {
+        let mut out = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(out);
+        out.write_record(header)?;
+        Ok(Self { out })
     }
 
     /// Writes one record; it must have as many fields as the header.
-    pub fn record(&mut self, fields: &[&dyn Display]) -> io::Result<()> {
-        debug_assert_eq!(
-            fields.len(),
-            self.columns,
-            "record width differs from header"
-        );
-        for (i, field) in fields.iter().enumerate() {
-            if i > 0 {
-                self.out.write_all(b",")?;
-            }
-            write!(self.out, "{field}")?;
-        }
-        self.out.write_all(b"\n")
+    pub fn record(&mut self, fields: impl Serialize) -> io::Result<()> {
+        Ok(self.out.serialize(fields)?)
     }
 
     /// The underlying writer, borrowed.
     pub fn get_ref(&self) -> &W {
-        &self.out
+        self.out.get_ref()
     }
 
-    /// The underlying writer, for committing or flushing.
-    pub fn into_inner(self) -> W {
-        self.out
+    /// The underlying writer once every record is flushed to it, for committing.
+    pub fn finish(self) -> io::Result<W> {
+        self.out.into_inner().map_err(|e| e.into_error())
     }
 }
 
@@ -211,6 +205,12 @@ impl Display for Fixed4 {
         // `-0.0000` would read as a sign flip in diffs of nearly-zero values.
         let value = if self.0.abs() < 0.00005 { 0.0 } else { self.0 };
         write!(f, "{value:.4}")
+    }
+}
+
+impl Serialize for Fixed4 {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
     }
 }
 
@@ -260,41 +260,11 @@ mod tests {
     }
 
     #[test]
-    fn tables_check_their_header_and_name_bad_cells() {
-        let text = "t_us,gx,extra\n0,1.5,a\n\n10,nan,b\n20,x,c\n";
-        let table = Table::parse(text, "g.csv", &["t_us", "gx"]).unwrap();
-        let lines: Vec<usize> = table.records().iter().map(|r| r.line).collect();
-        assert_eq!(lines, [2, 4, 5]);
-        let records = table.records();
-        assert_eq!(table.value(&records[0], 1, parse_finite), Ok(1.5));
-        assert!(table.value(&records[1], 1, parse_number).unwrap().is_nan());
-        assert_eq!(
-            table
-                .value(&records[1], 1, parse_finite)
-                .unwrap_err()
-                .to_string(),
-            "g.csv: line 4, column 2 (gx): \"nan\" is not a finite number"
-        );
-        assert_eq!(
-            table
-                .value(&records[2], 1, parse_number)
-                .unwrap_err()
-                .to_string(),
-            "g.csv: line 5, column 2 (gx): \"x\" is not a number"
-        );
-        let wrong = Table::parse("t,gx\n", "g.csv", &["t_us", "gx"]).unwrap_err();
-        assert_eq!(
-            wrong.to_string(),
-            "g.csv: line 1: expected a header starting with \"t_us,gx\", found \"t,gx\""
-        );
-    }
-
-    #[test]
-    fn writer_joins_fields() {
+    fn writer_writes_the_header_and_serialized_records() {
         let mut writer = CsvWriter::new(Vec::new(), &["x", "ok"]).unwrap();
-        writer.record(&[&Fixed4(1.0), &1]).unwrap();
-        writer.record(&[&Fixed4(-0.00001), &0]).unwrap();
-        let text = String::from_utf8(writer.into_inner()).unwrap();
+        writer.record((Fixed4(1.0), 1)).unwrap();
+        writer.record((Fixed4(-0.00001), 0)).unwrap();
+        let text = String::from_utf8(writer.finish().unwrap()).unwrap();
         assert_eq!(text, "x,ok\n1.0000,1\n0.0000,0\n");
     }
 }

@@ -1,79 +1,49 @@
-//! Progress on long runs: one line on stderr, redrawn in place, only when stderr is a
-//! terminal, so that scripts and logs see nothing.
+//! Progress on long runs, drawn by indicatif on stderr, only when stderr is a terminal, so that
+//! scripts and logs see nothing.
 
-use std::io::{IsTerminal, Write};
-use std::time::{Duration, Instant};
+use std::io::IsTerminal;
 
-/// The shortest time between two redraws.
-const REDRAW: Duration = Duration::from_millis(100);
-/// Width of the bar, characters.
-const BAR: usize = 30;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// A progress line for `label`, counting frames.
+/// A progress bar for a command, counting frames.
 #[derive(Debug)]
 pub struct Progress {
-    label: &'static str,
-    total: Option<usize>,
-    shown: bool,
-    last_draw: Option<Instant>,
+    bar: ProgressBar,
 }
 
 impl Progress {
-    /// A progress line for `total` frames (`None` when unknown, as for a stream); silent
+    /// A bar for `total` frames (a spinner with a count when `None`, as for a stream); hidden
     /// unless stderr is a terminal.
     pub fn new(label: &'static str, total: Option<usize>) -> Self {
-        Self {
-            label,
-            total,
-            shown: std::io::stderr().is_terminal(),
-            last_draw: None,
-        }
+        let bar = match std::io::stderr().is_terminal() {
+            false => ProgressBar::hidden(),
+            true => {
+                let bar = ProgressBar::with_draw_target(
+                    total.map(|t| t as u64),
+                    ProgressDrawTarget::stderr(),
+                );
+                let template = match total {
+                    Some(_) => {
+                        "{prefix} [{bar:30}] {pos}/{len} frames ({elapsed} so far, {eta} left)"
+                    }
+                    None => "{prefix} {spinner} {pos} frames ({elapsed} so far)",
+                };
+                let style = ProgressStyle::with_template(template)
+                    .expect("a valid template")
+                    .progress_chars("#> ");
+                bar.with_style(style).with_prefix(label)
+            }
+        };
+        Self { bar }
     }
 
     /// Reports that `done` frames are finished.
     pub fn update(&mut self, done: usize) {
-        if !self.shown || self.last_draw.is_some_and(|t| t.elapsed() < REDRAW) {
-            return;
-        }
-        self.last_draw = Some(Instant::now());
-        let line = render(self.label, done, self.total);
-        let _ = write!(std::io::stderr().lock(), "\r{line}");
+        self.bar.set_position(done as u64);
     }
 
-    /// Clears the line, leaving stderr as it was for the messages that follow.
+    /// Clears the bar, leaving stderr as it was for the messages that follow.
     pub fn finish(self) {
-        if self.shown && self.last_draw.is_some() {
-            let _ = write!(std::io::stderr().lock(), "\r\x1b[2K");
-        }
-    }
-}
-
-/// The progress line: a bar and a count when the total is known, a count otherwise.
-fn render(label: &str, done: usize, total: Option<usize>) -> String {
-    match total {
-        Some(total) if total > 0 => {
-            let filled = (done.min(total) * BAR) / total;
-            format!(
-                "{label} [{}{}] {done}/{total} frames",
-                "#".repeat(filled),
-                " ".repeat(BAR - filled)
-            )
-        }
-        _ => format!("{label}: {done} frames"),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_line_shows_a_bar_when_the_total_is_known() {
-        assert_eq!(
-            render("track", 15, Some(30)),
-            format!("track [{}{}] 15/30 frames", "#".repeat(15), " ".repeat(15))
-        );
-        assert_eq!(render("track", 7, None), "track: 7 frames");
-        assert_eq!(render("track", 9, Some(0)), "track: 9 frames");
+        self.bar.finish_and_clear();
     }
 }

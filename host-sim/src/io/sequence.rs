@@ -26,6 +26,8 @@ pub struct FrameSource {
     /// Width and height of the first frame.
     size: Option<(usize, usize)>,
     finished: bool,
+    /// Bytes of a y4m file (not a stream), for the frame count.
+    file_len: Option<u64>,
 }
 
 /// Where the frames come from.
@@ -63,7 +65,11 @@ impl FrameSource {
             return Self::from_directory(path);
         }
         let file = File::open(path).map_err(cannot_open)?;
-        Self::from_y4m(Box::new(BufReader::new(file)), &path.display().to_string())
+        let file_len = file.metadata().ok().map(|m| m.len());
+        let mut source =
+            Self::from_y4m(Box::new(BufReader::new(file)), &path.display().to_string())?;
+        source.file_len = file_len;
+        Ok(source)
     }
 
     /// A sequence of the image files in `directory`, in file-name order; hidden files (names
@@ -92,6 +98,7 @@ impl FrameSource {
             next_index: 0,
             size: None,
             finished: false,
+            file_len: None,
         }
     }
 
@@ -101,11 +108,12 @@ impl FrameSource {
     }
 
     /// The number of frames, when known before reading them: for a directory, its image files
-    /// (a bad one still ends the sequence early); `None` for a y4m stream.
+    /// (a bad one still ends the sequence early); for a y4m file, its frames by its size;
+    /// `None` for a y4m stream.
     pub fn frame_count(&self) -> Option<usize> {
         match &self.frames {
             Frames::Files(files) => Some(self.next_index + files.len()),
-            Frames::Y4m(_) => None,
+            Frames::Y4m(stream) => self.file_len.map(|len| stream.frames_in(len)),
         }
     }
 

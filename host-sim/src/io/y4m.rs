@@ -4,6 +4,13 @@
 //! frame a line starting with `FRAME` and the planar picture: Y, then the chroma planes, whose size
 //! the colour space fixes. Only 8-bit colour spaces are read; Y is already grey, so it is used as
 //! is and the chroma is skipped. `ffmpeg -i clip.mp4 -f yuv4mpegpipe -` writes this format.
+//!
+//! Hand-written rather than the `y4m` crate (0.8), which fails host-sim/tests/hostile_input.rs:
+//! a last frame cut in its picture data or in its FRAME marker ends its `read_frame` with
+//! `Error::EOF`, exactly as the clean end of a stream does, so a truncated recording would pass
+//! for a complete one ("last frame cut in its picture": no "truncated" error). It also accepts
+//! `F30:0` and takes `C420p10` without refusing it, and its header errors ("General parsing
+//! error") do not say which field is wrong, where the contract's messages must.
 
 use std::io::{self, BufRead, Read};
 
@@ -167,6 +174,8 @@ pub struct Y4mReader<R> {
     input: String,
     /// Frames read so far: the index of the next one.
     frames_read: usize,
+    /// Bytes of the header line, its newline included.
+    header_len: usize,
 }
 
 impl<R: BufRead> Y4mReader<R> {
@@ -175,6 +184,10 @@ impl<R: BufRead> Y4mReader<R> {
         let line = read_line(&mut reader, MAX_HEADER_LEN).map_err(|e| {
             InputError::new(input, format!("cannot read: {}", describe_io_error(&e)))
         })?;
+        let header_len = match &line {
+            Line::Complete(line) => line.len() + 1,
+            _ => 0,
+        };
         let header = match line {
             Line::Complete(line) => Y4mHeader::parse(&line),
             Line::End => Err("empty input; expected a y4m stream".to_owned()),
@@ -189,7 +202,15 @@ impl<R: BufRead> Y4mReader<R> {
             header,
             input: input.to_owned(),
             frames_read: 0,
+            header_len,
         })
+    }
+
+    /// The frames in a stream of `total` bytes whose frames carry no parameters (`FRAME\n`):
+    /// what a progress bar expects of a y4m file.
+    pub fn frames_in(&self, total: u64) -> usize {
+        let per_frame = (b"FRAME\n".len() + self.header.frame_bytes()) as u64;
+        (total.saturating_sub(self.header_len as u64) / per_frame) as usize
     }
 
     /// The stream's header.

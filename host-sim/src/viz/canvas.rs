@@ -1,105 +1,70 @@
-//! An RGB picture to draw on: a dimmed grey frame as background, lines, dots, blending.
+//! Drawing on RGB pictures with imageproc: dimmed grey frames as backgrounds, blended lines,
+//! dots with a rim, tinted and outlined rectangles, contact sheets. Coordinates are the
+//! library's (origin at the centre of the top-left pixel); anything off the picture is clipped.
 
 use image::{imageops, Rgb, RgbImage};
+use imageproc::drawing::{
+    draw_antialiased_line_segment_mut, draw_filled_circle_mut, draw_hollow_circle_mut,
+    draw_hollow_rect_mut,
+};
+use imageproc::pixelops::interpolate;
+use imageproc::rect::Rect;
 
 use crate::Frame;
 
-/// How much of its brightness the grey background keeps, so that coloured marks stand out.
-const BACKGROUND: u32 = 180;
-
-/// An RGB picture with drawing in sub-pixel coordinates (the library's: origin at the centre
-/// of the top-left pixel).
-#[derive(Debug, Clone)]
-pub struct Canvas {
-    image: RgbImage,
+/// `frame` in grey, its brightness scaled by `brightness`/255 (255 keeps it; less lets coloured
+/// marks stand out).
+pub fn grey(frame: &Frame, brightness: u32) -> RgbImage {
+    RgbImage::from_fn(frame.width as u32, frame.height as u32, |x, y| {
+        let v = u32::from(frame.at(x as usize, y as usize)) * brightness / 255;
+        Rgb([v as u8; 3])
+    })
 }
 
-impl Canvas {
-    /// `frame` in grey, dimmed to `BACKGROUND`/255 of its brightness.
-    pub fn from_frame(frame: &Frame) -> Self {
-        let image = RgbImage::from_fn(frame.width as u32, frame.height as u32, |x, y| {
-            let v = u32::from(frame.at(x as usize, y as usize)) * BACKGROUND / 255;
-            Rgb([v as u8; 3])
-        });
-        Self { image }
-    }
+/// An anti-aliased line from `a` to `b`, blended over the picture with opacity `alpha`.
+pub fn line(image: &mut RgbImage, a: (f32, f32), b: (f32, f32), colour: Rgb<u8>, alpha: f32) {
+    let alpha = alpha.clamp(0.0, 1.0);
+    draw_antialiased_line_segment_mut(image, nearest(a), nearest(b), colour, |ink, under, w| {
+        interpolate(ink, under, w * alpha)
+    });
+}
 
-    /// The picture.
-    pub fn image(&self) -> &RgbImage {
-        &self.image
-    }
+/// A filled disc of `radius` px (whole pixels) around `centre`, ringed in black so that it shows on
+/// bright backgrounds too.
+pub fn dot(image: &mut RgbImage, centre: (f32, f32), radius: f32, colour: Rgb<u8>) {
+    let (centre, radius) = (nearest(centre), radius as i32);
+    draw_hollow_circle_mut(image, centre, radius + 1, Rgb([0, 0, 0]));
+    draw_filled_circle_mut(image, centre, radius, colour);
+}
 
-    /// The picture, consumed.
-    pub fn into_image(self) -> RgbImage {
-        self.image
-    }
-
-    /// Blends `colour` over pixel (`x`, `y`) with opacity `alpha` (0..=1); outside pixels are
-    /// ignored.
-    pub fn blend(&mut self, x: i64, y: i64, colour: Rgb<u8>, alpha: f32) {
-        let (Ok(x), Ok(y)) = (u32::try_from(x), u32::try_from(y)) else {
-            return;
-        };
-        if x >= self.image.width() || y >= self.image.height() {
-            return;
-        }
-        let alpha = alpha.clamp(0.0, 1.0);
-        let pixel = self.image.get_pixel_mut(x, y);
-        for (channel, &c) in pixel.0.iter_mut().zip(&colour.0) {
-            let mixed = f32::from(*channel) * (1.0 - alpha) + f32::from(c) * alpha;
-            *channel = mixed.round() as u8;
-        }
-    }
-
-    /// A one-pixel line from `a` to `b` (Bresenham between the nearest pixels).
-    pub fn line(&mut self, a: (f32, f32), b: (f32, f32), colour: Rgb<u8>, alpha: f32) {
-        let (mut x, mut y) = (nearest(a.0), nearest(a.1));
-        let (x1, y1) = (nearest(b.0), nearest(b.1));
-        let (dx, dy) = ((x1 - x).abs(), -(y1 - y).abs());
-        let (sx, sy) = ((x1 - x).signum(), (y1 - y).signum());
-        let mut error = dx + dy;
-        loop {
-            self.blend(x, y, colour, alpha);
-            if x == x1 && y == y1 {
-                break;
-            }
-            let twice = 2 * error;
-            if twice >= dy {
-                error += dy;
-                x += sx;
-            }
-            if twice <= dx {
-                error += dx;
-                y += sy;
-            }
-        }
-    }
-
-    /// A filled disc of `radius` px around `centre`, with a dark rim so that it shows on
-    /// bright backgrounds too.
-    pub fn dot(&mut self, centre: (f32, f32), radius: f32, colour: Rgb<u8>) {
-        let reach = radius.ceil() as i64 + 1;
-        let (cx, cy) = (nearest(centre.0), nearest(centre.1));
-        for y in cy - reach..=cy + reach {
-            for x in cx - reach..=cx + reach {
-                let d = (x as f32 - centre.0).hypot(y as f32 - centre.1);
-                if d <= radius {
-                    self.blend(x, y, colour, 1.0);
-                } else if d <= radius + 1.0 {
-                    self.blend(x, y, Rgb([0, 0, 0]), 0.6);
-                }
-            }
+/// Blends `colour` into the rectangle (`x`, `y`, `w`, `h`) with weight `alpha` in `0..=1`.
+/// imageproc fills rectangles opaquely, so the blend is done here, pixel by pixel.
+pub fn tint(image: &mut RgbImage, (x, y, w, h): (i64, i64, i64, i64), colour: Rgb<u8>, alpha: f32) {
+    let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+    for py in y.max(0)..(y + h).min(height) {
+        for px in x.max(0)..(x + w).min(width) {
+            let pixel = image.get_pixel_mut(px as u32, py as u32);
+            *pixel = interpolate(colour, *pixel, alpha);
         }
     }
 }
 
-/// The pixel nearest to a coordinate; far-off coordinates saturate.
-fn nearest(v: f32) -> i64 {
-    if v.is_finite() {
-        v.round().clamp(-1e9, 1e9) as i64
-    } else {
-        -1
+/// The one-pixel outline of the rectangle (`x`, `y`, `w`, `h`).
+pub fn outline(image: &mut RgbImage, (x, y, w, h): (i64, i64, i64, i64), colour: Rgb<u8>) {
+    if w > 0 && h > 0 {
+        let at = |v: i64| v.clamp(-1 << 30, 1 << 30) as i32;
+        let rect = Rect::at(at(x), at(y)).of_size(w.min(1 << 30) as u32, h.min(1 << 30) as u32);
+        draw_hollow_rect_mut(image, rect, colour);
     }
+}
+
+/// The pixel nearest to a point; far-off and non-finite coordinates land far off the picture.
+fn nearest((x, y): (f32, f32)) -> (i32, i32) {
+    let one = |v: f32| match v.is_finite() {
+        true => v.round().clamp(-1e6, 1e6) as i32,
+        false => -1_000_000,
+    };
+    (one(x), one(y))
 }
 
 /// `images` side by side, `columns` to a row, each shrunk by `shrink` (1 keeps the size) and
@@ -130,45 +95,33 @@ pub fn contact_sheet(images: &[RgbImage], columns: usize, shrink: u32) -> RgbIma
 mod tests {
     use super::*;
 
-    fn blank(width: usize, height: usize) -> Canvas {
-        Canvas::from_frame(&Frame::filled(width, height, 0))
-    }
-
-    fn lit(canvas: &Canvas) -> Vec<(u32, u32)> {
-        canvas
-            .image()
-            .enumerate_pixels()
-            .filter(|(_, _, p)| p.0 != [0, 0, 0])
-            .map(|(x, y, _)| (x, y))
-            .collect()
+    fn lit(image: &RgbImage) -> Vec<(u32, u32)> {
+        let dark = |p: &Rgb<u8>| p.0 == [0, 0, 0];
+        let on = image.enumerate_pixels().filter(|(_, _, p)| !dark(p));
+        on.map(|(x, y, _)| (x, y)).collect()
     }
 
     #[test]
-    fn lines_join_their_ends_without_gaps() {
-        let mut c = blank(10, 10);
-        c.line((1.0, 1.0), (8.0, 4.0), Rgb([255, 0, 0]), 1.0);
-        let pixels = lit(&c);
+    fn lines_reach_their_ends_and_are_clipped() {
+        let mut image = RgbImage::new(10, 10);
+        line(&mut image, (1.0, 1.0), (8.0, 4.0), Rgb([255, 0, 0]), 1.0);
+        let pixels = lit(&image);
         assert!(pixels.contains(&(1, 1)) && pixels.contains(&(8, 4)));
-        // One pixel per column for a shallow line.
-        assert_eq!(pixels.len(), 8);
-        let mut steep = blank(10, 10);
-        steep.line((2.0, 9.0), (3.0, 0.0), Rgb([0, 255, 0]), 1.0);
-        assert_eq!(lit(&steep).len(), 10);
+        let mut off = RgbImage::new(5, 5);
+        line(&mut off, (-20.0, 2.0), (30.0, 2.0), Rgb([9, 9, 9]), 1.0);
+        dot(&mut off, (f32::NAN, 1e30), 2.0, Rgb([9, 9, 9]));
+        assert_eq!(lit(&off).len(), 5);
     }
 
     #[test]
-    fn drawing_off_the_canvas_is_clipped() {
-        let mut c = blank(5, 5);
-        c.line((-20.0, 2.0), (30.0, 2.0), Rgb([9, 9, 9]), 1.0);
-        c.dot((f32::NAN, 1e30), 2.0, Rgb([9, 9, 9]));
-        assert_eq!(lit(&c).len(), 5);
-    }
-
-    #[test]
-    fn blending_mixes_colours() {
-        let mut c = Canvas::from_frame(&Frame::filled(1, 1, 255));
-        c.blend(0, 0, Rgb([0, 0, 0]), 0.5);
-        assert_eq!(c.image().get_pixel(0, 0).0, [90, 90, 90]);
+    fn tints_blend_and_outlines_are_one_pixel() {
+        let mut image = grey(&Frame::filled(6, 4, 100), 255);
+        tint(&mut image, (-2, -2, 4, 4), Rgb([200, 0, 100]), 0.5);
+        assert_eq!(image.get_pixel(1, 1).0, [150, 50, 100]);
+        assert_eq!(image.get_pixel(2, 2).0, [100, 100, 100]);
+        outline(&mut image, (4, 2, 5, 5), Rgb([1, 2, 3]));
+        assert_eq!(image.get_pixel(4, 3).0, [1, 2, 3]);
+        assert_eq!(image.get_pixel(5, 3).0, [100, 100, 100]);
     }
 
     #[test]

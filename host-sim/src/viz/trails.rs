@@ -3,14 +3,17 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use image::Rgb;
+use image::{Rgb, RgbImage};
 use kestrel::track::Track;
 
-use super::Canvas;
+use super::canvas;
 use crate::Frame;
 
 /// Positions kept per track: the current one and the nine before it.
 pub const TRAIL_LEN: usize = 10;
+
+/// How much of its brightness the grey background keeps, so that the trails stand out.
+const BACKGROUND: u32 = 180;
 
 /// Radius of the dot on a track's current position, px.
 const DOT_RADIUS: f32 = 1.6;
@@ -54,21 +57,21 @@ impl Trails {
 
     /// `frame` with every trail drawn over it: older segments fainter, a dot on the current
     /// position.
-    pub fn draw(&self, frame: &Frame) -> Canvas {
-        let mut canvas = Canvas::from_frame(frame);
+    pub fn draw(&self, frame: &Frame) -> RgbImage {
+        let mut picture = canvas::grey(frame, BACKGROUND);
         for (&id, path) in &self.paths {
             let colour = id_colour(id);
             let segments = path.len().saturating_sub(1);
             for (i, (a, b)) in path.iter().zip(path.iter().skip(1)).enumerate() {
                 // The newest segment is opaque, the oldest a quarter.
                 let alpha = 0.25 + 0.75 * (i + 1) as f32 / segments as f32;
-                canvas.line(*a, *b, colour, alpha);
+                canvas::line(&mut picture, *a, *b, colour, alpha);
             }
             if let Some(&current) = path.back() {
-                canvas.dot(current, DOT_RADIUS, colour);
+                canvas::dot(&mut picture, current, DOT_RADIUS, colour);
             }
         }
-        canvas
+        picture
     }
 }
 
@@ -133,7 +136,7 @@ mod tests {
         for x in [4.0, 8.0, 12.0] {
             trails.update(&[track(7, x, 10.0)]);
         }
-        let image = trails.draw(&Frame::filled(20, 20, 0)).into_image();
+        let image = trails.draw(&Frame::filled(20, 20, 0));
         let colour = id_colour(7);
         assert_eq!(*image.get_pixel(12, 10), colour);
         // The oldest segment is fainter than the newest.

@@ -13,6 +13,7 @@ use crate::dense::picture::motion_overlay;
 use crate::dense::wheel::flow_picture;
 use crate::dense::{DenseRunner, MotionRunner, MotionSettings, RunError};
 use crate::io::create_output_dir;
+use crate::io::images::write_rgb_png;
 
 /// The pair whose flow is pictured: the middle of the sequence, with the box in view.
 const FLOW_PAIR: usize = 30;
@@ -36,7 +37,7 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
         .map_err(failed)?;
     let dense_ms = start.elapsed().as_secs_f64() * 1e3;
     let field = FlowField::from_grid(dense.layout(), dense.nodes());
-    flow_picture(&field).write_png(&dir.join("flow.png"))?;
+    write_rgb_png(&dir.join("flow.png"), &flow_picture(&field))?;
 
     let boxes_dir = dir.join("boxes");
     create_output_dir(&boxes_dir)?;
@@ -51,9 +52,9 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
         let boxes = found.boxes_in_later_frame(width, height);
         score.add(&truth_boxes(scenario, index, width, height), &boxes);
         if index % PICTURE_STEP == 0 {
-            let canvas =
+            let picture =
                 motion_overlay(frame, motion.layout(), motion.nodes(), &found.mask, &boxes);
-            canvas.write_png(&boxes_dir.join(format!("{index:06}.png")))?;
+            write_rgb_png(&boxes_dir.join(format!("{index:06}.png")), &picture)?;
         }
     }
     Ok(vec![

@@ -13,7 +13,7 @@ use crate::io::csv::CsvWriter;
 use crate::io::images::write_rgb_png;
 use crate::io::{create_output_dir, AtomicFile};
 use crate::tracking::{config_for, track_sequence};
-use crate::viz::{contact_sheet, Canvas, Trails};
+use crate::viz::{canvas, contact_sheet, Trails};
 
 /// Tracks aimed for.
 const MAX_TRACKS: usize = 100;
@@ -41,9 +41,8 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
     track_sequence(frames, configure, |tracked| {
         write_rows(&mut csv, tracked).map_err(|e| write_error(&csv_path, &e))?;
         trails.update(tracked.tracks);
-        let mut canvas = trails.draw(tracked.frame);
-        outline_objects(scenario, tracked.index, &mut canvas);
-        let picture = canvas.into_image();
+        let mut picture = trails.draw(tracked.frame);
+        outline_objects(scenario, tracked.index, &mut picture);
         write_rgb_png(
             &trails_dir.join(frame_picture_name(tracked.index)),
             &picture,
@@ -60,7 +59,9 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
         );
         Ok(())
     })?;
-    csv.into_inner().commit()?;
+    csv.finish()
+        .map_err(|e| write_error(&csv_path, &e))?
+        .commit()?;
     write_rgb_png(
         &dir.join("contact_sheet.png"),
         &contact_sheet(&sheet, SHEET_COLUMNS, 2),
@@ -70,7 +71,7 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
 
 /// Draws where the scene's objects are in frame `index`, from the ground truth, so that the
 /// pictures show which trails ride on them.
-fn outline_objects(scenario: &Scenario, index: usize, canvas: &mut Canvas) {
+fn outline_objects(scenario: &Scenario, index: usize, picture: &mut image::RgbImage) {
     let warp = scenario.sequence.homography(index);
     for object in &scenario.sequence.scene().objects {
         let (cx, cy) = object.centre(index as f64);
@@ -81,7 +82,7 @@ fn outline_objects(scenario: &Scenario, index: usize, canvas: &mut Canvas) {
         });
         for (i, &a) in corners.iter().enumerate() {
             let b = corners[(i + 1) % corners.len()];
-            canvas.line(a, b, OUTLINE, 0.7);
+            canvas::line(picture, a, b, OUTLINE, 0.7);
         }
     }
 }

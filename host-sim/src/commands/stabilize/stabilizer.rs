@@ -12,11 +12,8 @@
 //! averaging window is kept symmetric about each frame, shrinking near both ends of the
 //! sequence, so the first and last frames are never pulled towards one side.
 
-mod path;
-mod warp;
-
-pub use path::PathPoint;
-pub use warp::warp_bilinear;
+use super::path::PathPoint;
+use super::warp::warp_bilinear;
 
 use std::collections::VecDeque;
 

@@ -1,44 +1,94 @@
 //! `host-sim track`: the library's KLT tracker over a sequence, one CSV row per live track per
 //! frame, and optionally a picture of the trails per frame.
+//!
+//! The tracker run over a sequence, shared with the demo and the tests, is [`tracking`].
+
+pub mod tracking;
 
 use std::ffi::OsString;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use super::motion::input;
 use super::{median, CommandError};
+use crate::cli::values::{self, path};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::write_rgb_png;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
-use crate::tracking::{
-    config_for, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
-};
 use crate::viz::Trails;
+use serde_json::json;
 use std::collections::HashMap;
+use tracking::{
+    config_for, preset, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
+    MAX_TRACKS,
+};
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
 /// residual in grey levels.
 pub const COLUMNS: [&str; 6] = ["frame", "id", "x", "y", "age", "residual"];
 
-/// Everything `track` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim track`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "follow corners through a sequence with the KLT tracker (tracks.csv, trail pictures)",
+    before_help = "host-sim track: the library's KLT tracker over a sequence: corners detected, followed with
+Lucas-Kanade, checked (forward-backward, residual, appearance), dropped and refilled.",
+    after_help = "tracks.csv columns:
+  frame     frame index, from 0
+  id        track id; ids are never reused, and a track's first row is the frame it was
+            detected in
+  x,y       position in px, from the centre of the top-left pixel, x right, y down
+  age       frames the track has been followed since it was detected
+  residual  mean absolute intensity residual of its last step, grey levels
+
+The firmware's configuration (firmware/src/pipeline.rs) is --window 9 --levels 2 --template
+nearest-pixel; the flow sensor's is --preset flow-sensor.
+
+A bad frame ends the run with an error naming it; tracks.csv then holds every frame before it.
+Progress is shown on stderr when it is a terminal.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line."
+)]
 pub struct TrackOptions {
-    /// The sequence: a directory, a y4m file, or `-` for y4m on standard input.
+    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file (the Y
+    /// plane), or - for y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - |
+    /// host-sim track - ...)
+    #[arg(value_name = "INPUT", value_parser = input)]
     pub input: OsString,
-    /// Where tracks.csv goes.
+    /// tracks, one row per live track per frame (see below)
+    #[arg(long, value_name = "FILE", value_parser = path)]
     pub out: PathBuf,
-    /// The number of tracks aimed for, when given.
+    /// number of tracks aimed for, 1 to 1000 [default: 100; the preset's with --preset]
+    #[arg(long, value_name = "N", value_parser = max_tracks)]
     pub max_tracks: Option<usize>,
-    /// The configuration the tracker starts from, when not its defaults.
+    /// flow-sensor: the library's TrackerConfig::flow_sensor() (25 tracks, 7x7 windows on two
+    /// levels of a box-mean pyramid, FAST corners), the settings a flight controller runs at
+    /// 400 Hz; flags given beside it override it [default: none, the tracker's defaults]
+    #[arg(long, value_name = "NAME", value_parser = preset)]
     pub preset: Option<Preset>,
-    /// Settings given beside it, which override it.
+    #[command(flatten)]
     pub settings: TrackerSettings,
-    /// Where the trail pictures go, if anywhere.
+    /// one PNG per frame (000000.png, ...) with each track's trail over its last 10 frames,
+    /// coloured by id; DIR is created if missing
+    #[arg(long, value_name = "DIR", value_parser = path)]
     pub viz: Option<PathBuf>,
-    /// Where to write the timing summary, if anywhere.
+    /// write {"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life",
+    /// "drops": {reason: count}}: the library's time per frame (decoding and writing
+    /// excluded), the frames a track is live in on average, and the tracks dropped by each
+    /// gate (lost, residual, appearance, forward_backward)
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+}
+
+fn max_tracks(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=MAX_TRACKS as i64).contains(&n);
+    values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
 }
 
 impl From<TrackingFailure> for CommandError {
@@ -83,7 +133,7 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
         // The picture first: a frame's rows are only written once all its outputs are.
         if let Some(dir) = &options.viz {
             trails.update(tracked.tracks);
-            let picture = trails.draw(tracked.frame).into_image();
+            let picture = trails.draw(tracked.frame);
             write_rgb_png(&dir.join(frame_picture_name(tracked.index)), &picture)?;
         }
         write_rows(&mut csv, tracked).map_err(|e| {
@@ -98,7 +148,9 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     });
     progress.finish();
     if frames_done > 0 && !csv_failed {
-        csv.into_inner().commit()?;
+        csv.finish()
+            .map_err(|e| write_error(&options.out, &e))?
+            .commit()?;
         if let Some(stats) = stats {
             write_stats(stats, &mut seconds, &lives)?;
         }
@@ -152,14 +204,15 @@ fn write_stats(
     let drops = reasons
         .iter()
         .zip(lives.drops)
-        .fold(JsonObject::new(), |o, (reason, n)| o.integer(reason, n));
-    let summary = JsonObject::new()
-        .integer("frames", seconds.len() as u64)
-        .number("median_frame_seconds", median(seconds))
-        .number("mean_frame_seconds", mean)
-        .number("mean_track_life", lives.mean())
-        .object("drops", drops)
-        .finish();
+        .map(|(reason, n)| (reason.to_string(), json!(n)))
+        .collect::<serde_json::Map<_, _>>();
+    let summary = one_line(&json!({
+        "frames": seconds.len(),
+        "median_frame_seconds": median(seconds),
+        "mean_frame_seconds": mean,
+        "mean_track_life": lives.mean(),
+        "drops": drops,
+    }));
     file.write_all(summary.as_bytes())
         .map_err(|e| file.write_error(&e))?;
     Ok(file.commit()?)
@@ -171,14 +224,14 @@ pub(crate) fn write_rows(
     tracked: &TrackedFrame<'_>,
 ) -> io::Result<()> {
     for track in tracked.tracks {
-        csv.record(&[
-            &tracked.index,
-            &track.id,
-            &Fixed4(track.position.x.to_num()),
-            &Fixed4(track.position.y.to_num()),
-            &track.age,
-            &Fixed4(track.residual.to_num()),
-        ])?;
+        csv.record((
+            tracked.index,
+            track.id,
+            Fixed4(track.position.x.to_num()),
+            Fixed4(track.position.y.to_num()),
+            track.age,
+            Fixed4(track.residual.to_num()),
+        ))?;
     }
     Ok(())
 }
@@ -223,7 +276,7 @@ mod tests {
         };
         let mut csv = CsvWriter::new(Vec::new(), &COLUMNS).unwrap();
         write_rows(&mut csv, &tracked).unwrap();
-        let text = String::from_utf8(csv.into_inner()).unwrap();
+        let text = String::from_utf8(csv.finish().unwrap()).unwrap();
         assert_eq!(
             text,
             "frame,id,x,y,age,residual\n5,7,1.5000,2.2500,3,0.5000\n"

@@ -11,6 +11,7 @@ use kestrel::track::{
     TrackerConfig, TrackerError,
 };
 
+use crate::cli::values;
 use crate::Frame;
 
 /// The most tracks host-sim follows at once.
@@ -20,48 +21,29 @@ pub const MAX_TRACKS: usize = 1000;
 /// its share.
 const PER_CELL: u8 = 3;
 
-/// Settings given on the command line, each overriding the configuration it is applied to
-/// when present.
-///
-/// ```
-/// use host_sim::tracking::{Preset, TrackerSettings};
-/// let settings = TrackerSettings { window: Some(9), ..TrackerSettings::default() };
-/// let config = settings.apply(Preset::FlowSensor.config(None));
-/// assert_eq!((config.lk.window, config.lk.max_level), (9, 1));
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct TrackerSettings {
-    /// LK window side.
+/// The LK flags `track` and `egomotion` share, each overriding the configuration it is
+/// applied to when given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::Args)]
+pub struct LkSettings {
+    /// LK window side, odd, 3 to 63 [default: 21; 7 with --preset flow-sensor]
+    #[arg(long, value_name = "N", value_parser = window)]
     pub window: Option<usize>,
-    /// Coarsest pyramid level LK searches.
+    /// coarsest pyramid level LK searches, 0 to 7 [default: 3; 1 with the preset]
+    #[arg(long, value_name = "L", value_parser = values::levels)]
     pub levels: Option<usize>,
-    /// Brightness model.
+    /// plain, or gain-bias: a brightness gain and bias fitted between frames
+    /// [default: gain-bias]
+    #[arg(long, value_name = "M", value_parser = illumination)]
     pub illumination: Option<Illumination>,
-    /// Where LK's templates sit.
+    /// at-point (interpolated at each point, OpenCV's) or nearest-pixel (on the pixel nearest
+    /// it, cheaper: the firmware's) [default: at-point; nearest-pixel with the preset]
+    #[arg(long, value_name = "P", value_parser = template)]
     pub template: Option<TemplatePlacement>,
-    /// Forward-backward gate, px.
-    pub fb_threshold: Option<f32>,
-    /// Residual gate, grey levels.
-    pub max_residual: Option<f32>,
-    /// Appearance gate.
-    pub min_correlation: Option<f32>,
 }
 
-impl TrackerSettings {
-    /// `config` with every given setting in place of its own.
-    pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
-        TrackerConfig {
-            lk: self.apply_lk(config.lk),
-            fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
-            max_residual: self.max_residual.unwrap_or(config.max_residual),
-            min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
-            ..config
-        }
-    }
-
-    /// `lk` with the given LK settings (window, levels, illumination, template) in place of
-    /// its own.
-    pub fn apply_lk(&self, lk: LkParams) -> LkParams {
+impl LkSettings {
+    /// `lk` with the given settings in place of its own.
+    pub fn apply(&self, lk: LkParams) -> LkParams {
         LkParams {
             window: self.window.unwrap_or(lk.window),
             max_level: self.levels.unwrap_or(lk.max_level),
@@ -70,6 +52,76 @@ impl TrackerSettings {
             ..lk
         }
     }
+}
+
+/// The tracker's flags: LK's and the gates', each overriding the configuration it is applied
+/// to when given.
+///
+/// ```
+/// use host_sim::tracking::{LkSettings, Preset, TrackerSettings};
+/// let lk = LkSettings { window: Some(9), ..LkSettings::default() };
+/// let settings = TrackerSettings { lk, ..TrackerSettings::default() };
+/// let config = settings.apply(Preset::FlowSensor.config(None));
+/// assert_eq!((config.lk.window, config.lk.max_level), (9, 1));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, clap::Args)]
+pub struct TrackerSettings {
+    #[command(flatten)]
+    pub lk: LkSettings,
+    /// forward-backward gate, px, >= 0 [default: 1]
+    #[arg(long, value_name = "PX", value_parser = non_negative)]
+    pub fb_threshold: Option<f32>,
+    /// residual gate, grey levels, >= 0 [default: 12]
+    #[arg(long, value_name = "G", value_parser = non_negative)]
+    pub max_residual: Option<f32>,
+    /// appearance gate: least correlation with the track's birth patch, -1 to 1 (-1 turns it
+    /// off) [default: 0.8]
+    #[arg(long, value_name = "C", value_parser = correlation)]
+    pub min_correlation: Option<f32>,
+}
+
+impl TrackerSettings {
+    /// `config` with every given setting in place of its own.
+    pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
+        TrackerConfig {
+            lk: self.lk.apply(config.lk),
+            fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
+            max_residual: self.max_residual.unwrap_or(config.max_residual),
+            min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
+            ..config
+        }
+    }
+}
+
+fn window(text: &str) -> Result<usize, String> {
+    let odd = |n: i64| (3..=63).contains(&n) && n % 2 == 1;
+    values::whole(text, odd, "must be an odd number from 3 to 63").map(|n| n as usize)
+}
+
+fn illumination(text: &str) -> Result<Illumination, String> {
+    crate::commands::flow::illumination(text)
+}
+
+fn template(text: &str) -> Result<TemplatePlacement, String> {
+    let names = [
+        ("at-point", TemplatePlacement::AtPoint),
+        ("nearest-pixel", TemplatePlacement::NearestPixel),
+    ];
+    values::choice(text, &names)
+}
+
+fn non_negative(text: &str) -> Result<f32, String> {
+    values::number(text, |v| v >= 0.0, "must be a number >= 0").map(|v| v as f32)
+}
+
+fn correlation(text: &str) -> Result<f32, String> {
+    let range = |v| (-1.0..=1.0).contains(&v);
+    values::number(text, range, "must be between -1 and 1").map(|v| v as f32)
+}
+
+/// `--preset NAME`.
+pub fn preset(text: &str) -> Result<Preset, String> {
+    values::choice(text, &[("flow-sensor", Preset::FlowSensor)])
 }
 
 /// A named tracker configuration of the library's.

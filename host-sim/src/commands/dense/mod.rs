@@ -1,43 +1,121 @@
 //! `host-sim dense`: the library's grid flow between two frames, as CSV, a Middlebury `.flo`
 //! field and the Middlebury colour picture.
+//!
+//! The grid and motion runners `dense` and `motion` share (runner.rs), the `.flo` field
+//! (field.rs), the colour wheel (wheel.rs) and the motion overlay (picture.rs) live beside it.
+
+pub mod field;
+pub mod picture;
+mod runner;
+pub mod wheel;
+
+pub use runner::*;
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use kestrel::dense::grid::{DenseParams, GridLayout, GridNode, NodeStatus};
 use kestrel::dense::DenseError;
+use kestrel::lk::LkParams;
 
 use super::{check_same_size, time_core, CommandError};
-use crate::dense::field::FlowField;
-use crate::dense::wheel::flow_picture;
-use crate::dense::{DenseRunner, RunError};
+use crate::cli::values::{self, path};
 use crate::io::csv::{CsvWriter, Fixed4};
 use crate::io::images::{encode_rgb_png, read_grey};
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{AtomicFile, InputError, OutputError};
+use field::FlowField;
+use serde_json::json;
+use wheel::flow_picture;
 
 /// Columns of grid.csv: the contract's five, then the node's status by name.
 pub const COLUMNS: [&str; 6] = ["x", "y", "dx", "dy", "ok", "status"];
 
-/// Everything `dense` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim dense`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "flow at every node of a grid, as CSV, a Middlebury .flo field and picture",
+    before_help = "host-sim dense: the library's grid flow from frame A to frame B: LK at every node of a
+regular grid, each node checked for texture, convergence and residual, the rest filled from
+their neighbours.",
+    after_help = "grid.csv columns:
+  x,y      the node centre in A: (cell/2 + i*cell, cell/2 + j*cell)
+  dx,dy    its flow from A to B, px (0 when unknown; filled from the neighbours when filled)
+  ok       1 when measured; 0 otherwise
+  status   tracked, low_texture, residual (the window does not match), lost (not converged
+           or left the frame) or filled
+
+Coordinates are pixels from the centre of the top-left pixel, x right, y down.
+Nothing is written unless every step succeeds.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line."
+)]
 pub struct DenseOptions {
-    /// The first frame.
+    /// first frame: PNG, JPEG, PGM or BMP, converted to BT.601 grey
+    #[arg(long, value_name = "A", value_parser = path)]
     pub prev: PathBuf,
-    /// The second frame.
+    /// second frame, the same size as A
+    #[arg(long, value_name = "B", value_parser = path)]
     pub next: PathBuf,
-    /// CSV of the grid.
+    /// one row per grid node, row by row (see below)
+    #[arg(long, value_name = "grid.csv", value_parser = path)]
     pub out: PathBuf,
-    /// Where to write the full-resolution `.flo` field, if anywhere.
+    /// the flow at every pixel of A, interpolated from the grid, as a Middlebury .flo file
+    /// (unknown flow is 1e10)
+    #[arg(long, value_name = "F.flo", value_parser = path)]
     pub flo: Option<PathBuf>,
-    /// Where to write the colour picture, if anywhere.
+    /// the Middlebury colour picture of that flow: hue is the direction, colour strength the
+    /// speed up to the largest in the picture, black is unknown; a legend wheel sits in the
+    /// top-right corner
+    #[arg(long, value_name = "F.png", value_parser = path)]
     pub png: Option<PathBuf>,
-    /// Grid and tracking parameters.
-    pub params: DenseParams,
-    /// How many times the core runs (at least 1).
+    #[command(flatten)]
+    pub grid: GridFlags,
+    /// run the core (build both pyramids, compute the grid) N times, N >= 1
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = values::repeat)]
     pub repeat: usize,
-    /// Where to write the timing summary, if anywhere.
+    /// write {"nodes": n, "repeat": N, "median_core_seconds": t}; decoding is not timed
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+}
+
+/// The grid and LK flags shared by `dense` and `motion`, over the dense defaults.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::Args)]
+pub struct GridFlags {
+    /// grid spacing in px, 1 to the frame's smaller side
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = cell)]
+    pub cell: usize,
+    /// LK window side in px, odd, 3 to 63
+    #[arg(long, value_name = "N", default_value_t = 9, value_parser = values::window)]
+    pub window: usize,
+    /// coarsest pyramid level, 0 to 7
+    #[arg(long, value_name = "L", default_value_t = 3, value_parser = values::levels)]
+    pub levels: usize,
+}
+
+impl GridFlags {
+    /// The library's dense parameters with these flags in place.
+    pub fn params(&self) -> DenseParams {
+        let defaults = DenseParams::default();
+        DenseParams {
+            cell: self.cell,
+            lk: LkParams {
+                window: self.window,
+                max_level: self.levels,
+                ..defaults.lk
+            },
+            ..defaults
+        }
+    }
+}
+
+/// Cells up to the largest frame; the frame's own size is checked once it is read.
+fn cell(text: &str) -> Result<usize, String> {
+    let range = |n| (1..=kestrel::frame::MAX_DIMENSION as i64).contains(&n);
+    values::whole(text, range, "must be between 1 and 4096").map(|n| n as usize)
 }
 
 /// The outputs, created before any work so an unwritable path fails fast.
@@ -76,8 +154,9 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     let next = read_grey(&options.next)?;
     check_same_size(&options.prev, &options.next, &prev, &next)?;
     let size = (prev.width, prev.height);
-    let refused = |e| refused(e, &options.params, &options.prev, size);
-    let mut runner = DenseRunner::new(options.params, size.0, size.1).map_err(refused)?;
+    let params = options.grid.params();
+    let refused = |e| refused(e, &params, &options.prev, size);
+    let mut runner = DenseRunner::new(params, size.0, size.1).map_err(refused)?;
     let ((), seconds) = time_core(options.repeat, || {
         runner.compute(&prev, &next).map(|_| ()).map_err(refused)
     })?;
@@ -93,16 +172,17 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     }
     if let (Some(file), Some(field)) = (&mut outputs.png, &field) {
         let picture = flow_picture(field);
-        let bytes = encode_rgb_png(picture.width, picture.height, &picture.rgb)
+        let (width, height) = (picture.width() as usize, picture.height() as usize);
+        let bytes = encode_rgb_png(width, height, picture.as_raw())
             .map_err(|problem| OutputError::new(file.target(), problem))?;
         file.write_all(&bytes).map_err(|e| file.write_error(&e))?;
     }
     if let Some(file) = &mut outputs.stats {
-        let summary = JsonObject::new()
-            .integer("nodes", layout.len() as u64)
-            .integer("repeat", options.repeat as u64)
-            .number("median_core_seconds", seconds)
-            .finish();
+        let summary = one_line(&json!({
+            "nodes": layout.len(),
+            "repeat": options.repeat,
+            "median_core_seconds": seconds,
+        }));
         file.write_all(summary.as_bytes())
             .map_err(|e| file.write_error(&e))?;
     }
@@ -156,16 +236,16 @@ fn write_grid_csv(out: impl Write, layout: &GridLayout, nodes: &[GridNode]) -> i
         let (col, row) = layout.node(index);
         let (x, y) = layout.centre(col, row);
         let (dx, dy) = node.flow.to_f32();
-        csv.record(&[
-            &x,
-            &y,
-            &Fixed4(f64::from(dx)),
-            &Fixed4(f64::from(dy)),
-            &u8::from(node.is_valid()),
-            &status_name(node.status),
-        ])?;
+        csv.record((
+            x,
+            y,
+            Fixed4(f64::from(dx)),
+            Fixed4(f64::from(dy)),
+            u8::from(node.is_valid()),
+            status_name(node.status),
+        ))?;
     }
-    csv.into_inner().flush()
+    csv.finish()?.flush()
 }
 
 #[cfg(test)]

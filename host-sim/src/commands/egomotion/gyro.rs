@@ -49,9 +49,9 @@ impl GyroLog {
     /// assert_eq!(error.to_string(), "g.csv: line 3, column 3 (gy): \"x\" is not a number");
     /// ```
     pub fn parse(text: &str, input: &str) -> Result<Self, InputError> {
-        let table = Table::parse(text, input, &GYRO_COLUMNS)?;
-        let mut samples: Vec<GyroSample> = Vec::with_capacity(table.records().len());
-        for record in table.records() {
+        let table = Table::read(text, input, &GYRO_COLUMNS)?;
+        let mut samples: Vec<GyroSample> = Vec::with_capacity(table.records.len());
+        for record in &table.records {
             let t_us = table.value(record, 0, parse_finite)?;
             let mut rates = [0.0; 3];
             for (axis, rate) in rates.iter_mut().enumerate() {

@@ -4,10 +4,6 @@
 //! The runners own their buffers, allocated once for a frame size as firmware would place them
 //! in statics, so that each call is exactly the library's work on one frame.
 
-pub mod field;
-pub mod picture;
-pub mod wheel;
-
 use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
 use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;

@@ -5,6 +5,21 @@
 //! OPTICAL_FLOW message (see [`crate::egomotion::MavlinkLink`]): the flow accumulator is read out
 //! after every pair, so each message integrates exactly one frame interval. A pair whose fit fails gets the identity homography, zero inliers and quality 0
 //! (the library's convention: no motion is claimed), never a stale model.
+//!
+//! The command's parts live beside it: the per-pair estimator (estimator.rs, with the
+//! defaults), gyro logs (gyro.rs), the frame clock (clock.rs) and the MAVLink link (link.rs).
+
+mod clock;
+mod estimator;
+mod gyro;
+mod link;
+
+pub use clock::{FrameClock, Pacer};
+pub use estimator::{
+    EstimatorSettings, MotionEstimator, PairMotion, DEFAULT_MAX_POINTS, DEFAULT_THRESHOLD,
+};
+pub use gyro::{GyroLog, GyroSample, GYRO_COLUMNS};
+pub use link::{MavlinkDestination, MavlinkLink, SendFailures};
 
 use std::ffi::OsString;
 use std::io::Write;
@@ -13,15 +28,18 @@ use std::time::Instant;
 
 use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlow, OpticalFlowRad, Rotation};
 
+use kestrel::ego::camera::FOCAL_RANGE;
+use kestrel::ego::ModelKind;
+
+use super::motion::input;
 use super::CommandError;
-use crate::egomotion::{
-    EstimatorSettings, FrameClock, GyroLog, MavlinkDestination, MavlinkLink, MotionEstimator,
-    Pacer, PairMotion, SendFailures,
-};
+use crate::cli::values::{self, path};
 use crate::io::csv::CsvWriter;
-use crate::io::json::JsonObject;
+use crate::io::json::one_line;
 use crate::io::{AtomicFile, FrameSource, Progress};
+use crate::tracking::{preset, LkSettings, Preset};
 use crate::Frame;
+use serde_json::json;
 
 /// Columns of ego.csv: the contract's twelve, then the extras.
 pub const COLUMNS: [&str; 17] = [
@@ -44,25 +62,167 @@ pub const COLUMNS: [&str; 17] = [
     "status",
 ];
 
-/// Everything `egomotion` needs, validated by the command line.
-#[derive(Debug, Clone, PartialEq)]
+/// `host-sim egomotion`: its flags, their rules and its usage text.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+#[command(
+    help_template = crate::cli::TEMPLATE,
+    term_width = 100,
+    about = "camera motion between consecutive frames, and OPTICAL_FLOW_RAD for autopilots",
+    before_help = "host-sim egomotion: the camera's motion between consecutive frames, and the autopilot's
+MAVLink stream.
+
+Per frame pair: Shi-Tomasi corners in the earlier frame, spread by a grid; the library's Q16
+pyramidal Lucas-Kanade to the later frame (seeded by the gyro's prediction with --gyro); the
+motion model fitted by RANSAC; the OPTICAL_FLOW_RAD reading of the pair's interval.",
+    after_help = "ego.csv columns:
+  frame            the later frame of the pair (1, 2, ...)
+  h11..h33         the homography from pixels of frame-1 to pixels of frame, row-major,
+                   h33 = 1; the identity when the fit failed
+  inliers          tracked points within --threshold of the model (0 when the fit failed)
+  quality          0..255 as in OPTICAL_FLOW_RAD: 0 when the fit failed or the gyro reading
+                   was unusable (then the fitted homography is still given)
+  tracked          points tracked from frame-1 to frame, fitted by RANSAC
+  rms              RMS inlier residual, px
+  integrated_x,y   OPTICAL_FLOW_RAD angular flow over the interval, rad (0 when quality is 0)
+  status           ok, too_few_tracks, degenerate, no_consensus, bad_input or bad_gyro
+
+Coordinates are pixels from the centre of the top-left pixel, x right, y down. A bad frame
+stops the run; the rows (and MAVLink frames) of the pairs before it are kept. Progress is
+shown on stderr when it is a terminal.
+
+Exit status: 0 success; 1 unreadable or malformed input, or an output that cannot be written;
+2 bad command line."
+)]
 pub struct EgomotionOptions {
-    /// The sequence: a directory of frames, a y4m file, or `-` for y4m on stdin.
+    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file, or - for
+    /// y4m on standard input
+    #[arg(value_name = "INPUT", value_parser = input)]
     pub input: OsString,
-    /// ego.csv.
+    /// results, one row per frame pair (see below)
+    #[arg(long, value_name = "ego.csv", value_parser = path)]
     pub out: PathBuf,
-    /// How motion is measured (model, focal length, points per pair).
-    pub settings: EstimatorSettings,
-    /// Gyro log, if any.
+    /// translation, similarity, affine or homography
+    #[arg(long, value_name = "M", default_value = "homography", value_parser = model)]
+    pub model: ModelKind,
+    /// focal length in px, 1 to 100000 [default: that of a 60 degree horizontal field of view;
+    /// the principal point is the frame centre]
+    #[arg(long, value_name = "PX", value_parser = focal)]
+    pub focal: Option<f32>,
+    /// gyro log: columns t_us,gx,gy,gz; time in microseconds on the frames' clock (frame k at
+    /// k / fps s), body rates in rad/s about the sensor axes (X to the top of the image, Y to
+    /// its right, Z along the optical axis), linear between samples. Intervals the log does not
+    /// cover have no gyro reading.
+    #[arg(long, value_name = "G.csv", value_parser = path)]
     pub gyro: Option<PathBuf>,
-    /// Where to send the MAVLink stream, if anywhere.
+    /// MAVLink 2 stream: per frame pair OPTICAL_FLOW_RAD (id 106, read by PX4) and
+    /// OPTICAL_FLOW (id 100, read by ArduPilot), after a HEARTBEAT at each new second of the
+    /// frame clock; system 1, component 100, one sequence from 0. DEST is a file (raw bytes,
+    /// back to back) or udp:HOST:PORT (datagrams to a listener, like MAVProxy's or
+    /// QGroundControl's udpout; a listener that is missing or stops costs nothing, failed sends
+    /// are counted on stderr at the end)
+    #[arg(long, value_name = "DEST", value_parser = mavlink)]
     pub mavlink: Option<MavlinkDestination>,
-    /// Frame pairs per second to pace the replay at; as fast as it can without.
+    /// pace the replay in real time at HZ frame pairs per second, 0.1 to 10000 [default: as
+    /// fast as it can]
+    #[arg(long, value_name = "HZ", value_parser = rate)]
     pub rate: Option<f64>,
-    /// Frame rate given on the command line; otherwise the input's, otherwise 30.
+    /// frame rate, 1 to 10000 [default: the y4m header's, else 30]
+    #[arg(long, value_name = "F", value_parser = fps)]
     pub fps: Option<f64>,
-    /// Where to write the timing summary, if anywhere.
+    /// points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]
+    #[arg(long, value_name = "N", value_parser = max_points)]
+    pub max_points: Option<usize>,
+    /// flow-sensor: the LK settings and pyramid of the library's TrackerConfig::flow_sensor()
+    /// (7x7 windows on two levels of a box-mean pyramid, nearest-pixel templates, 10
+    /// iterations) and its 25 points; flags given beside it override it [default: none,
+    /// OpenCV's LK settings]
+    #[arg(long, value_name = "NAME", value_parser = preset)]
+    pub preset: Option<Preset>,
+    #[command(flatten)]
+    pub lk: LkSettings,
+    /// RANSAC inlier threshold, 0.05 to 100 px; raise it for blurred or noisy video
+    #[arg(long, value_name = "PX", default_value_t = DEFAULT_THRESHOLD, value_parser = threshold)]
+    pub threshold: f32,
+    /// write {"frames", "pairs", "mean_tracked_points", "median_pair_seconds",
+    /// "mean_pair_seconds"}; per pair the new frame's pyramid, detection, tracking and the fit
+    /// are timed, decoding is not
+    #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
+}
+
+impl EgomotionOptions {
+    /// How motion is measured: the preset's LK and pyramid when given, the flags over them.
+    pub fn settings(&self) -> EstimatorSettings {
+        let mut settings = EstimatorSettings {
+            model: self.model,
+            focal: self.focal,
+            threshold: self.threshold,
+            max_points: self.max_points.unwrap_or(DEFAULT_MAX_POINTS),
+            ..EstimatorSettings::default()
+        };
+        if let Some(preset) = self.preset {
+            let config = preset.config(None);
+            settings.lk = config.lk;
+            settings.pyramid = config.pyramid;
+            settings.max_points = self.max_points.unwrap_or(config.max_tracks);
+        }
+        settings.lk = self.lk.apply(settings.lk);
+        settings
+    }
+}
+
+fn focal(text: &str) -> Result<f32, String> {
+    let range = |f: f64| FOCAL_RANGE.contains(&(f as f32)) && f.is_finite();
+    let says = "must be a focal length between 1 and 100000 px";
+    values::number(text, range, says).map(|f| f as f32)
+}
+
+/// `--fps`, shared with `synth-sequence`.
+pub fn fps(text: &str) -> Result<f64, String> {
+    let range = |f| (1.0..=10_000.0).contains(&f);
+    values::number(text, range, "must be between 1 and 10000 frames per second")
+}
+
+fn rate(text: &str) -> Result<f64, String> {
+    let range = |r| (0.1..=10_000.0).contains(&r);
+    values::number(
+        text,
+        range,
+        "must be between 0.1 and 10000 frame pairs per second",
+    )
+}
+
+/// `--threshold`, shared with `stabilize`.
+pub fn threshold(text: &str) -> Result<f32, String> {
+    let range = |t| (0.05..=100.0).contains(&t);
+    values::number(text, range, "must be between 0.05 and 100 px").map(|t| t as f32)
+}
+
+/// `--max-points`, shared with `stabilize`.
+pub fn max_points(text: &str) -> Result<usize, String> {
+    let range = |n| (8..=2000).contains(&n);
+    values::whole(text, range, "must be between 8 and 2000").map(|n| n as usize)
+}
+
+/// `--model`, shared with `stabilize`.
+pub fn model(text: &str) -> Result<ModelKind, String> {
+    match text {
+        "translation" => Ok(ModelKind::Translation),
+        "similarity" => Ok(ModelKind::Similarity),
+        "affine" => Ok(ModelKind::Affine),
+        "homography" => Ok(ModelKind::Homography),
+        _ => Err(format!(
+            "must be translation, similarity, affine or homography (got \"{text}\")"
+        )),
+    }
+}
+
+/// `--mavlink`: a file path, or `udp:HOST:PORT`.
+fn mavlink(text: &str) -> Result<MavlinkDestination, String> {
+    match text.is_empty() {
+        true => Err("must not be empty".into()),
+        false => MavlinkDestination::parse(text.as_ref()),
+    }
 }
 
 /// The outcome of one frame pair, as written to ego.csv and the MAVLink stream.
@@ -162,7 +322,7 @@ struct SequenceRun {
 impl SequenceRun {
     fn new(options: &EgomotionOptions, clock: FrameClock, gyro: Option<GyroLog>) -> Self {
         Self {
-            settings: options.settings,
+            settings: options.settings(),
             clock,
             gyro,
             estimator: None,
@@ -274,7 +434,9 @@ impl Outputs {
             stats.commit()?;
         }
         let undelivered = self.mavlink.map(MavlinkLink::finish).transpose()?.flatten();
-        self.csv.into_inner().commit()?;
+        let target = self.csv.get_ref().target().to_owned();
+        let csv_error = |e: std::io::Error| CommandError::from(out_error(&target, &e));
+        self.csv.finish().map_err(csv_error)?.commit()?;
         if let Some((link, failures)) = undelivered {
             report_send_failures(&link, &failures);
         }
@@ -308,13 +470,13 @@ fn timing_summary(run: &SequenceRun) -> String {
             total / pairs as f64
         }
     };
-    JsonObject::new()
-        .integer("frames", run.frames as u64)
-        .integer("pairs", pairs as u64)
-        .number("mean_tracked_points", mean(run.tracked_total as f64))
-        .number("median_pair_seconds", median)
-        .number("mean_pair_seconds", mean(seconds.iter().sum()))
-        .finish()
+    one_line(&json!({
+        "frames": run.frames,
+        "pairs": pairs,
+        "mean_tracked_points": mean(run.tracked_total as f64),
+        "median_pair_seconds": median,
+        "mean_pair_seconds": mean(seconds.iter().sum()),
+    }))
 }
 
 /// One ego.csv row. Matrix entries are printed in full (the shortest text that reads back as
@@ -322,25 +484,17 @@ fn timing_summary(run: &SequenceRun) -> String {
 fn write_row(csv: &mut CsvWriter<AtomicFile>, report: &PairReport) -> std::io::Result<()> {
     let m = report.pair.motion.model.matrix();
     let r = &report.reading;
-    csv.record(&[
-        &report.frame,
-        &m[0],
-        &m[1],
-        &m[2],
-        &m[3],
-        &m[4],
-        &m[5],
-        &m[6],
-        &m[7],
-        &m[8],
-        &report.pair.motion.inliers,
-        &r.quality,
-        &report.pair.tracked,
-        &report.pair.motion.rms_residual,
-        &r.integrated_x,
-        &r.integrated_y,
-        &report.status.name(),
-    ])
+    csv.record((
+        report.frame,
+        m,
+        report.pair.motion.inliers,
+        r.quality,
+        report.pair.tracked,
+        report.pair.motion.rms_residual,
+        r.integrated_x,
+        r.integrated_y,
+        report.status.name(),
+    ))
 }
 
 /// One stderr line for the datagrams a UDP link could not send: never an error, a listener

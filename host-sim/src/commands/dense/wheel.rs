@@ -8,7 +8,7 @@
 //! in the top-right corner shows the colour of every direction and speed up to that largest.
 
 use super::field::FlowField;
-use super::picture::Canvas;
+use image::{Rgb, RgbImage};
 
 /// The lengths of the six ramps of the wheel: RY, YG, GC, CB, BM, MR.
 pub const RAMPS: [usize; 6] = [15, 6, 4, 11, 13, 6];
@@ -64,30 +64,33 @@ pub fn flow_colour(wheel: &[[u8; 3]; WHEEL_LEN], u: f32, v: f32) -> [u8; 3] {
 }
 
 /// The colour-coded picture of `field`, with the legend wheel.
-pub fn flow_picture(field: &FlowField) -> Canvas {
+pub fn flow_picture(field: &FlowField) -> RgbImage {
     let wheel = colour_wheel();
     let scale = field.max_speed().max(f32::EPSILON);
-    let mut canvas = Canvas::new(field.width, field.height);
-    for y in 0..field.height {
-        for x in 0..field.width {
-            if let Some((u, v)) = field.at(x, y) {
-                canvas.set(x, y, flow_colour(&wheel, u / scale, v / scale));
-            }
-        }
-    }
-    draw_legend(&mut canvas, &wheel);
-    canvas
+    let mut picture = RgbImage::from_fn(field.width as u32, field.height as u32, |x, y| {
+        let flow = field.at(x as usize, y as usize);
+        Rgb(flow.map_or([0, 0, 0], |(u, v)| {
+            flow_colour(&wheel, u / scale, v / scale)
+        }))
+    });
+    draw_legend(&mut picture, &wheel);
+    picture
 }
 
 /// Draws the legend: a disc in the top-right corner coloured by the flow each of its points
 /// stands for (the rim is the largest speed), ringed in black.
-fn draw_legend(canvas: &mut Canvas, wheel: &[[u8; 3]; WHEEL_LEN]) {
-    let radius = (canvas.width.min(canvas.height) / 10).max(6) as f32;
+fn draw_legend(picture: &mut RgbImage, wheel: &[[u8; 3]; WHEEL_LEN]) {
+    let radius = (picture.width().min(picture.height()) / 10).max(6) as f32;
     let margin = 2.0;
     let centre = (
-        canvas.width as f32 - margin - radius - 1.0,
+        picture.width() as f32 - margin - radius - 1.0,
         margin + radius + 1.0,
     );
+    let mut set = |x: f32, y: f32, colour| {
+        if let Some(p) = picture.get_pixel_mut_checked(x as u32, y as u32) {
+            *p = Rgb(colour);
+        }
+    };
     let reach = radius as i64 + 2;
     for dy in -reach..=reach {
         for dx in -reach..=reach {
@@ -98,9 +101,9 @@ fn draw_legend(canvas: &mut Canvas, wheel: &[[u8; 3]; WHEEL_LEN]) {
             let (u, v) = (dx as f32 / radius, dy as f32 / radius);
             let r = u.hypot(v);
             if r <= 1.0 {
-                canvas.set(x as usize, y as usize, flow_colour(wheel, u, v));
+                set(x, y, flow_colour(wheel, u, v));
             } else if r <= 1.0 + 1.5 / radius {
-                canvas.set(x as usize, y as usize, [0, 0, 0]);
+                set(x, y, [0, 0, 0]);
             }
         }
     }
@@ -152,13 +155,13 @@ mod tests {
             flow: vec![None; 1200],
         };
         let picture = flow_picture(&field);
-        assert_eq!(picture.pixel(0, 29), Some([0, 0, 0]));
+        assert_eq!(picture.get_pixel(0, 29).0, [0, 0, 0]);
         // The legend's centre is white (no motion).
         let radius = 6.0f32;
         let centre = (
-            (40.0 - 2.0 - radius - 1.0) as usize,
-            (2.0 + radius + 1.0) as usize,
+            (40.0 - 2.0 - radius - 1.0) as u32,
+            (2.0 + radius + 1.0) as u32,
         );
-        assert_eq!(picture.pixel(centre.0, centre.1), Some([255, 255, 255]));
+        assert_eq!(picture.get_pixel(centre.0, centre.1).0, [255, 255, 255]);
     }
 }

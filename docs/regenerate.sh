@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Regenerates the README's pictures under docs/ from `host-sim demo` (contact sheet, flow
+# picture, motion boxes) and, with --plot, the accuracy plot beside OpenCV
+# (bench/accuracy_plot.py; needs python3 with numpy, opencv-python-headless and matplotlib).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=target/docs-demo
+cargo run --release -q -p host-sim -- demo --out "$out" >/dev/null
+cp "$out/tracks/contact_sheet.png" docs/demo_contact_sheet.png
+cp "$out/motion/flow.png" docs/demo_flow.png
+# Half way through: the box is in the middle of the view.
+cp "$out/motion/boxes/000030.png" docs/demo_boxes.png
+if [ "${1:-}" = "--plot" ]; then
+    python3 bench/accuracy_plot.py --no-build
+fi
+ls -l docs/*.png

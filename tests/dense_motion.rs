@@ -202,3 +202,17 @@ fn moving_camera_finds_small_targets() {
     assert!(all.recall() >= 0.9, "recall");
     assert!(all.precision() >= 0.8, "precision");
 }
+
+#[test]
+fn moving_camera_finds_targets_of_ten_pixels() {
+    // Three targets of 10 to 12 px at 160x120 (20 to 24 px at 320x240) moving 1.5 to 3 px
+    // per frame (scaled with the width), seen by a camera that pans, rolls 0.4 degrees and
+    // zooms 0.6% per frame, noise 1.5 grey levels. Measured: 160x120 recall 0.964, precision
+    // 0.954 (13 false boxes of 280); 320x240 recall 1.000, precision 0.891.
+    let small = run_scenario(Scenario::SmallTargets, 160, 120, 4);
+    assert!(small.recall() >= 0.9, "recall at 160x120");
+    assert!(small.precision() >= 0.8, "precision at 160x120");
+    let large = run_scenario(Scenario::SmallTargets, 320, 240, 4);
+    assert!(large.recall() >= 0.9, "recall at 320x240");
+    assert!(large.precision() >= 0.8, "precision at 320x240");
+}

@@ -250,6 +250,10 @@ pub enum Scenario {
     /// eight targets of 10 to 25 px moving 1.5 to 3 px per frame on the ground, inside frame
     /// 0's view less 24 px on every side.
     MovingCamera,
+    /// The camera of [`Scenario::MovingCamera`] over three targets of 10 to 12 px at 160 px of
+    /// width (sizes and speeds grow with the width: 20 to 24 px at 320), moving 1.5 to 3 px
+    /// per frame at 160 px.
+    SmallTargets,
 }
 
 impl Scenario {
@@ -283,6 +287,23 @@ impl Scenario {
                     centre,
                 };
                 (spec, camera, 24.0)
+            }
+            Scenario::SmallTargets => {
+                let scale = width as f64 / 160.0;
+                let spec = ObjectSpec {
+                    moving: 3,
+                    still: 0,
+                    sizes: (10.0 * scale, 12.0 * scale),
+                    speeds: (1.5 * scale, 3.0 * scale),
+                    gap: 24.0 * scale,
+                };
+                let camera = CameraPath {
+                    pan: (1.5 * scale, -0.8 * scale),
+                    rotation: 0.4f64.to_radians(),
+                    zoom: 1.006,
+                    centre,
+                };
+                (spec, camera, 24.0 * scale)
             }
         };
         let area = BoxPx {

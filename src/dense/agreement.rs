@@ -5,10 +5,10 @@
 //! differences (the *mismatch*) is what noise and 8-bit rounding leave, about half a grey
 //! level per pixel. A node that moves on its own by a pixel mismatches by about the window's own
 //! *texture*, the sum of absolute differences between neighbouring pixels (the mismatch of a
-//! one-pixel shift). So a mismatch within [`NOISE`] (half a grey level) per pixel plus a fraction of the texture
-//! confirms the prediction to about that fraction of a pixel, at a tenth of the cost of LK's
-//! template and iterations; anything else, and every window flatter than [`MIN_TEXTURE`] (where
-//! the noise allowance would hide a pixel of motion), is left to LK.
+//! one-pixel shift). So a mismatch within [`NOISE`] (half a grey level) per pixel plus a
+//! fraction of the texture confirms the prediction to about that fraction of a pixel, at a
+//! tenth of the cost of LK's template and iterations; anything else, and every window flatter
+//! than [`MIN_TEXTURE`] (where the noise allowance would hide a pixel of motion), is left to LK.
 //!
 //! Zero-mean: a uniform change of brightness between the frames (auto exposure) does not count
 //! as a mismatch.

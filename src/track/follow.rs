@@ -269,11 +269,7 @@ impl Follow<'_, '_> {
                 .filter(|s| s.step.is_tracked())
                 .map(|s| s.step.residual)
                 .collect();
-            let middle = residuals.len() / 2;
-            if residuals.is_empty() {
-                return None;
-            }
-            let (_, &mut median, _) = residuals.select_nth_unstable(middle);
+            let median = median(&mut residuals)?;
             Some(ratio.saturating_mul(median.max(Q16::ONE)))
         });
         match (self.checked.max_residual, relative) {
@@ -396,13 +392,22 @@ impl<const N: usize> FrameMotion<N> {
         if self.dx.len() < Self::ENOUGH {
             return None;
         }
-        let middle = |values: &mut Vec<i32, N>| {
-            let mid = values.len() / 2;
-            let (_, &mut m, _) = values.select_nth_unstable(mid);
-            m
-        };
-        Some(Point::from_bits(middle(&mut self.dx), middle(&mut self.dy)))
+        Some(Point::from_bits(
+            median(&mut self.dx)?,
+            median(&mut self.dy)?,
+        ))
     }
+}
+
+/// The median of `values` (the upper one of an even count), reordering them; `None` when
+/// there are none.
+pub(super) fn median<T: Ord + Copy>(values: &mut [T]) -> Option<T> {
+    let middle = values.len() / 2;
+    if values.is_empty() {
+        return None;
+    }
+    let (_, &mut m, _) = values.select_nth_unstable(middle);
+    Some(m)
 }
 
 /// `p + (a - b)`, saturating.

@@ -12,6 +12,7 @@
 //! after; the median of their real and imaginary parts leaves out the tracks on moving objects
 //! and the failed steps, as long as they are fewer than half.
 
+use super::follow::median;
 use crate::q16::Point;
 
 /// Rotation and scale, `z = re + i im`: a point `(x, y)` goes to `(re x - im y, im x + re y)`.
@@ -179,16 +180,6 @@ fn median_point(points: impl Iterator<Item = Point>) -> Option<(f32, f32)> {
         let _ = ys.push(p.y.to_bits());
     }
     Some((from_q16(median(&mut xs)?), from_q16(median(&mut ys)?)))
-}
-
-/// The median of `values` (the upper one of an even count); `None` when empty.
-fn median(values: &mut [i32]) -> Option<i32> {
-    if values.is_empty() {
-        return None;
-    }
-    let middle = values.len() / 2;
-    let (_, &mut m, _) = values.select_nth_unstable(middle);
-    Some(m)
 }
 
 /// `v` as Q16 bits, saturating (NaN to 0).

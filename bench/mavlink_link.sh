@@ -7,20 +7,11 @@
 # Exits non-zero when any check fails, or QEMU fails or hangs.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-target=thumbv7em-none-eabihf
 # Far above a normal run (a few seconds with the build done), far below CI's limit.
 run_timeout=180
 
-if ! rustup target list --installed | grep -qx "$target"; then
-    echo "adding the Rust target $target" >&2
-    rustup target add "$target"
-fi
-for tool in qemu-system-arm python3; do
-    if ! command -v "$tool" >/dev/null; then
-        echo "error: $tool is required (Debian: apt-get install qemu-system-arm python3)" >&2
-        exit 2
-    fi
-done
+# shellcheck source=bench/firmware_prerequisites.sh
+. "$root/bench/firmware_prerequisites.sh"
 if ! python3 -c "import pymavlink" 2>/dev/null; then
     echo "error: pymavlink is required (pip install pymavlink)" >&2
     exit 2

@@ -8,20 +8,11 @@
 # Exits non-zero when the firmware reports a wrong result, or QEMU fails or hangs.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-target=thumbv7em-none-eabihf
 # Far above a normal run (a few seconds), far below CI's limit.
 run_timeout=300
 
-if ! rustup target list --installed | grep -qx "$target"; then
-    echo "adding the Rust target $target" >&2
-    rustup target add "$target"
-fi
-for tool in qemu-system-arm python3; do
-    if ! command -v "$tool" >/dev/null; then
-        echo "error: $tool is required (Debian: apt-get install qemu-system-arm python3)" >&2
-        exit 2
-    fi
-done
+# shellcheck source=bench/firmware_prerequisites.sh
+. "$root/bench/firmware_prerequisites.sh"
 
 cd "$root/firmware"
 cargo build --release

@@ -463,6 +463,7 @@ impl LucasKanade {
 
     /// Iterates LK at one level, moving `estimate`; at the finest level also returns the mean
     /// absolute residual at the final estimate (Q16 grey levels) when it converged.
+    #[inline(never)]
     fn refine<L: Loops>(
         &self,
         prev: &ImageView<'_>,

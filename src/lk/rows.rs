@@ -59,15 +59,22 @@ impl Loops for Rows {
         let TemplateOut { intensity, dx, dy } = out;
         let side = layout.win + 2;
         if origin.w == [1 << WEIGHT_BITS, 0, 0, 0] {
-            // On a pixel: the samples are the pixels themselves, read where they lie.
-            let whole = frame.block(origin.x, origin.y, side, side);
-            if let Some(px) = whole {
-                pixel_template(px, frame.stride(), layout, intensity, dx, dy);
-            } else {
-                gather(frame, origin, side, side, source);
-                let px = source.get(..side * side).unwrap_or(&[]);
-                // Windows over the frame's edge are rare: they take the general rows.
-                any_pixel_template(px, side, layout, (intensity, dx, dy));
+            // On a pixel: the samples are the pixels themselves.
+            let out = (&mut *intensity, &mut *dx, &mut *dy);
+            let (win, pitch, stride) = (layout.win, layout.pitch, frame.stride());
+            match frame.block(origin.x, origin.y, side, side) {
+                // The two windows the presets use (the flow sensor's 7, the tracker's 9) read
+                // the pixels where they lie, in rows of a known length: unrolled, without
+                // bounds checks or per-row set-up. Each costs about 900 bytes of flash.
+                Some(px) if win == 7 => fixed_pixel_template::<7, 9>(px, stride, pitch, out),
+                Some(px) if win == 9 => fixed_pixel_template::<9, 11>(px, stride, pitch, out),
+                // Other windows, and windows over the frame's edge (rare), copy the pixels
+                // first: one set of general rows serves them all.
+                _ => {
+                    gather(frame, origin, side, side, source);
+                    let px = source.get(..side * side).unwrap_or(&[]);
+                    any_pixel_template(px, side, layout, out);
+                }
             }
         } else {
             match Source::of(frame, origin, side, source) {
@@ -453,28 +460,8 @@ fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i
 /// `stride` apart) under its patch: intensities are the pixels (grey x 32) and the Scharr sums
 /// of whole pixels are already at the gain of 32, equal to those of [`derivatives`] on the
 /// samples (which are the pixels times 32) without their rounding.
-fn pixel_template(
-    px: &[u8],
-    stride: usize,
-    layout: &Layout,
-    intensity: &mut [i16],
-    dx: &mut [i16],
-    dy: &mut [i16],
-) {
-    let out = (intensity, dx, dy);
-    // The two windows the presets use (the flow sensor's 7, the tracker's 9) get rows of a
-    // known length: unrolled, without bounds checks or per-row set-up. Each costs about 930 bytes
-    // of flash, so other windows share the general loop.
-    match layout.win {
-        7 => fixed_pixel_template::<7, 9>(px, stride, layout.pitch, out),
-        9 => fixed_pixel_template::<9, 11>(px, stride, layout.pitch, out),
-        _ => any_pixel_template(px, stride, layout, out),
-    }
-}
-
-/// The template's rows, as [`pixel_template`], for any window.
-fn any_pixel_template<P: Pixel>(
-    px: &[P],
+fn any_pixel_template(
+    px: &[i16],
     stride: usize,
     layout: &Layout,
     (intensity, dx, dy): (&mut [i16], &mut [i16], &mut [i16]),
@@ -497,7 +484,7 @@ fn any_pixel_template<P: Pixel>(
     }
 }
 
-/// The template's rows, as [`pixel_template`], for a `W` x `W` window (`S = W + 2` pixels per
+/// The template's rows, as [`any_pixel_template`], for a `W` x `W` window (`S = W + 2` pixels per
 /// patch row). Each row is unrolled; the rows are not, which keeps the code small.
 #[inline(never)]
 fn fixed_pixel_template<const W: usize, const S: usize>(
@@ -542,10 +529,10 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
 
 /// One template row on whole pixels: intensities and Scharr derivatives, as [`scharr_row`].
 #[inline(never)]
-fn pixel_row<P: Pixel>(
-    up: &[P],
-    mid: &[P],
-    down: &[P],
+fn pixel_row(
+    up: &[i16],
+    mid: &[i16],
+    down: &[i16],
     intensity: &mut [i16],
     dx: &mut [i16],
     dy: &mut [i16],

@@ -56,14 +56,10 @@ impl Point {
     /// assert_eq!(Point::from_f32(f32::NAN, 1e9).to_f32(), (0.0, 32767.99998));
     /// ```
     pub fn from_f32(x: f32, y: f32) -> Self {
-        let q = |v: f32| {
-            if v.is_nan() {
-                Q16::ZERO
-            } else {
-                Q16::saturating_from_num(v)
-            }
-        };
-        Self { x: q(x), y: q(y) }
+        Self {
+            x: q16_from_f32(x),
+            y: q16_from_f32(y),
+        }
     }
 
     /// The coordinates as `f32`.
@@ -73,12 +69,25 @@ impl Point {
     /// assert_eq!(Point::from_f32(0.75, 2.0).to_f32(), (0.75, 2.0));
     /// ```
     pub fn to_f32(self) -> (f32, f32) {
-        // One rounding of the raw bits to f32 (a single instruction on an FPU), then an exact
-        // scaling by 2^-16: the nearest f32, as `to_num` gives it, without its software path.
-        #[allow(clippy::cast_precision_loss)]
-        let f = |v: Q16| v.to_bits() as f32 * (1.0 / 65536.0);
-        (f(self.x), f(self.y))
+        (q16_to_f32(self.x), q16_to_f32(self.y))
     }
+}
+
+/// `v` as `f32`: one rounding of the raw bits to f32 (a single instruction on an FPU), then an
+/// exact scaling by 2^-16; the nearest f32, as `to_num` gives it, without its software path.
+#[allow(clippy::cast_precision_loss)]
+pub(crate) fn q16_to_f32(v: Q16) -> f32 {
+    v.to_bits() as f32 * (1.0 / 65536.0)
+}
+
+/// `v` as Q16, to the nearest step (halves away from zero), saturating at the Q16 range; NaN
+/// becomes 0. A multiply, an add and one conversion on an FPU (Rust's `as` saturates and takes
+/// NaN to 0), where `fixed`'s conversion from a float is a software routine.
+#[allow(clippy::cast_possible_truncation)]
+pub(crate) fn q16_from_f32(v: f32) -> Q16 {
+    let scaled = v * 65536.0;
+    let half = if scaled < 0.0 { -0.5 } else { 0.5 };
+    Q16::from_bits((scaled + half) as i32)
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@
 use super::follow::distance_sq;
 use super::turn::Turn;
 use crate::frame::ImageView;
-use crate::q16::{Point, Q16};
+use crate::q16::{q16_from_f32, Point, Q16};
 
 /// Samples per side of the patch.
 const SIDE: usize = 7;
@@ -130,8 +130,8 @@ impl Anchor {
             let (dx, dy) = if self.turned.is_negligible() {
                 (dx, dy)
             } else {
-                let (x, y) = self.turned.apply((dx.to_num::<f32>(), dy.to_num::<f32>()));
-                (Q16::saturating_from_num(x), Q16::saturating_from_num(y))
+                let (x, y) = self.turned.apply(Point::new(dx, dy).to_f32());
+                (q16_from_f32(x), q16_from_f32(y))
             };
             at = Point::new(at.x.saturating_sub(dx), at.y.saturating_sub(dy));
             if distance_sq(at, start) > max_shift_sq {
@@ -183,19 +183,20 @@ impl Template {
         #[allow(clippy::cast_possible_truncation)]
         let n = SAMPLES as i32;
         let sum: i32 = samples.iter().map(|&v| i32::from(v)).sum();
-        let centred = samples.map(|v| n * i32::from(v) - sum);
         let at = |col: usize, row: usize| i32::from(samples[row * SIDE + col]);
-        let gradients: [(i32, i32); SAMPLES] = core::array::from_fn(|k| {
-            let (col, row) = (k % SIDE, k / SIDE);
-            (
-                difference(col, |c| at(c, row)),
-                difference(row, |r| at(col, r)),
-            )
-        });
+        let mut centred = [0i32; SAMPLES];
+        let mut gradients = [(0i32, 0i32); SAMPLES];
         let (mut gx, mut gy, mut gxt, mut gyt) = (0i64, 0i64, 0i64, 0i64);
         let (mut xx, mut xy, mut yy) = (0i64, 0i64, 0i64);
-        for (&(x, y), &t) in gradients.iter().zip(&centred) {
-            let (x, y, t) = (i64::from(x), i64::from(y), i64::from(t));
+        // One pass, in a loop LLVM keeps rolled: the anchor is built once per relocation.
+        for (k, (c, g)) in centred.iter_mut().zip(gradients.iter_mut()).enumerate() {
+            let (col, row) = (k % SIDE, k / SIDE);
+            *c = n * at(col, row) - sum;
+            *g = (
+                difference(col, |c| at(c, row)),
+                difference(row, |r| at(col, r)),
+            );
+            let (x, y, t) = (i64::from(g.0), i64::from(g.1), i64::from(*c));
             gx += x;
             gy += y;
             gxt += x * t;
@@ -246,7 +247,7 @@ impl Template {
         let bx = gain * (n * sgxi - si * self.sum_g.0) as f32 - self.sum_gt.0 as f32;
         let by = gain * (n * sgyi - si * self.sum_g.1) as f32 - self.sum_gt.1 as f32;
         let (xx, xy, yy) = self.inverse;
-        let clamp = |d: f32| Q16::saturating_from_num(d.clamp(-MAX_STEP, MAX_STEP));
+        let clamp = |d: f32| q16_from_f32(d.clamp(-MAX_STEP, MAX_STEP));
         let (dx, dy) = (xx * bx + xy * by, xy * bx + yy * by);
         if !(dx.is_finite() && dy.is_finite()) {
             return None;
@@ -338,7 +339,7 @@ fn turned_patch(frame: &ImageView<'_>, position: Point, turn: Turn) -> [u16; SAM
     core::array::from_fn(|i| {
         let at = |v: usize| (v as f32 - (SIDE / 2) as f32) * spacing;
         let (ox, oy) = turn.apply((at(i % SIDE), at(i / SIDE)));
-        let q16 = |v: f32| Q16::saturating_from_num(v).to_bits();
+        let q16 = |v: f32| q16_from_f32(v).to_bits();
         let (x, y) = (q16(centre.0 + ox), q16(centre.1 + oy));
         Bilinear::new(x, y).sample(frame, x >> 16, y >> 16)
     })

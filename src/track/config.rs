@@ -329,7 +329,7 @@ fn gate(threshold: f32) -> Option<Option<Q16>> {
     } else if threshold == f32::INFINITY {
         Some(None)
     } else {
-        Some(Some(Q16::saturating_from_num(threshold)))
+        Some(Some(crate::q16::q16_from_f32(threshold)))
     }
 }
 

@@ -623,28 +623,19 @@ impl<'a, const N: usize> Tracker<'a, N> {
         half: usize,
         report: &mut FrameReport,
     ) -> Result<(), TrackerError> {
-        let levels = self.config.pyramid_levels();
-        let StorageParts {
-            halves: [first, second],
-            fast_rows,
-        } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
-        let storage = if half == 0 { first } else { second };
-        let pyramid =
-            Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Pyramid)?;
-        let detect = DetectBuffers {
-            fast_rows,
-            scratch: self.buffers.detect_scratch,
-            candidates: self.buffers.candidates,
-        };
+        let set = &mut self.set;
+        let live: Vec<Point, N> = set.tracks.iter().map(|t| t.position).collect();
+        let room = self.config.max_tracks.saturating_sub(set.tracks.len());
+        let born = self.next_frame;
         let birth = Birth {
             config: &self.config,
             checked: &self.checked,
             size: (self.width, self.height),
-            pyramid: &pyramid,
-            born: self.next_frame,
+            live: &live,
+            room,
         };
-        self.set
-            .refill(birth, detect, self.buffers.lk_scratch, report)
+        let mut adopt = |position, anchor| set.adopt(position, anchor, born);
+        start_tracks(birth, (frame, half), &mut self.buffers, &mut adopt, report)
     }
 
     /// Remembers `frame` as the previous frame, its pyramid in `half`, and counts it.
@@ -685,55 +676,78 @@ impl<const N: usize> TrackSet<N> {
         self.anchors.clear();
     }
 
-    /// Detects on `pyramid` of a frame of `size` and starts new tracks, born in frame `born`,
-    /// up to `config.max_tracks`. A corner becomes a track only where LK accepts its window:
-    /// otherwise it would be dropped on its first step and found again by the next refill,
-    /// frame after frame.
-    fn refill(
-        &mut self,
-        birth: Birth<'_, '_>,
-        buffers: DetectBuffers<'_>,
-        lk_scratch: &mut [i16],
-        report: &mut FrameReport,
-    ) -> Result<(), TrackerError> {
-        let Birth {
-            config,
-            checked,
-            size,
-            pyramid,
+    /// Starts a track at `position` with its anchor; false when the set is full.
+    fn adopt(&mut self, position: Point, anchor: Anchor, born: u32) -> bool {
+        let track = Track {
+            id: self.next_id,
+            position,
+            age: 0,
+            residual: Q16::ZERO,
             born,
-        } = birth;
-        let Some(level_image) = pyramid.level(config.detect_level) else {
-            return Ok(());
+            velocity: Point::default(),
+            prediction_error: Q16::MAX,
         };
-        let live: Vec<Point, N> = self.tracks.iter().map(|t| t.position).collect();
-        let corners = refill::new_corners(config, &level_image, size, &live, buffers)
-            .map_err(TrackerError::Detect)?;
-        report.detected = true;
-        for corner in corners {
-            if self.tracks.len() >= config.max_tracks {
-                break;
-            }
-            let Some(anchor) = newborn(checked, pyramid, corner.position, lk_scratch)? else {
-                continue;
-            };
-            let track = Track {
-                id: self.next_id,
-                position: corner.position,
-                age: 0,
-                residual: Q16::ZERO,
-                born,
-                velocity: Point::default(),
-                prediction_error: Q16::MAX,
-            };
-            if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
-                break;
-            }
-            self.next_id = self.next_id.wrapping_add(1);
-            report.added = report.added.saturating_add(1);
+        if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
+            return false;
         }
-        Ok(())
+        self.next_id = self.next_id.wrapping_add(1);
+        true
     }
+}
+
+/// Detects corners away from the live tracks in `frame`, whose pyramid is in `half` of the
+/// storage, and starts up to `birth.room` new tracks, each handed to `adopt`. A corner becomes
+/// a track only where LK accepts its window: otherwise it would be dropped on its first step
+/// and found again by the next refill, frame after frame.
+// Not generic over the tracker's capacity: one copy serves every tracker size.
+fn start_tracks(
+    birth: Birth<'_>,
+    (frame, half): (ImageView<'_>, usize),
+    buffers: &mut TrackerBuffers<'_>,
+    adopt: &mut dyn FnMut(Point, Anchor) -> bool,
+    report: &mut FrameReport,
+) -> Result<(), TrackerError> {
+    let Birth {
+        config,
+        checked,
+        size,
+        live,
+        room,
+    } = birth;
+    let levels = config.pyramid_levels();
+    let StorageParts {
+        halves: [first, second],
+        fast_rows,
+    } = buffers::split_storage(buffers.storage, size.0, size.1, levels);
+    let storage = if half == 0 { first } else { second };
+    let pyramid = Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+    let Some(level_image) = pyramid.level(config.detect_level) else {
+        return Ok(());
+    };
+    let detect = DetectBuffers {
+        fast_rows,
+        scratch: buffers.detect_scratch,
+        candidates: buffers.candidates,
+    };
+    let corners = refill::new_corners(config, &level_image, size, live, detect)
+        .map_err(TrackerError::Detect)?;
+    report.detected = true;
+    let mut started = 0;
+    for corner in corners {
+        if started >= room {
+            break;
+        }
+        let anchor = newborn(checked, &pyramid, corner.position, buffers.lk_scratch)?;
+        let Some(anchor) = anchor else {
+            continue;
+        };
+        if !adopt(corner.position, anchor) {
+            break;
+        }
+        started = started.saturating_add(1);
+        report.added = report.added.saturating_add(1);
+    }
+    Ok(())
 }
 
 /// The anchor of a track born at `position`, or `None` where LK rejects the corner's window.
@@ -754,13 +768,15 @@ fn newborn(
         .then(|| Anchor::capture(&pyramid.base(), position)))
 }
 
-/// Where and when new tracks are born, and by which rules.
-struct Birth<'c, 'p> {
+/// Where new tracks may be born, how many, and by which rules.
+struct Birth<'c> {
     config: &'c TrackerConfig,
     checked: &'c Checked,
     size: (usize, usize),
-    pyramid: &'c Pyramid<'p>,
-    born: u32,
+    /// Where the live tracks are: new ones keep their distance.
+    live: &'c [Point],
+    /// How many tracks may start.
+    room: usize,
 }
 
 /// Checks each buffer against the size the configuration needs.

@@ -91,6 +91,8 @@ impl Turn {
     /// This turn about `from -> to` when most `steps` agree with it (within [`AGREE`] px);
     /// else [`Turn::NONE`]: a frame whose steps are mostly wrong (a blank or saturated frame,
     /// a scene cut) says nothing of how the image turned.
+    // Out of line: called from three places, once a frame.
+    #[inline(never)]
     fn agreed(self, steps: &[(Point, Point)], from: (f32, f32), to: (f32, f32)) -> Self {
         let agrees = |&&(a, b): &&(Point, Point)| {
             let (pa, pb) = (a.to_f32(), b.to_f32());
@@ -109,6 +111,7 @@ impl Turn {
 
     /// The turn that takes offsets from `from` before to offsets from `to` after, from the
     /// median of each step's ratio; [`Turn::NONE`] when too few steps say.
+    #[inline(never)]
     fn about(steps: &[(Point, Point)], from: (f32, f32), to: (f32, f32)) -> Self {
         // Q16 bits: the medians are of integers, as the tracker's other medians.
         let mut re: heapless::Vec<i32, STEPS> = heapless::Vec::new();
@@ -184,12 +187,12 @@ fn median_point(points: impl Iterator<Item = Point>) -> Option<(f32, f32)> {
 
 /// `v` as Q16 bits, saturating (NaN to 0).
 fn q16(v: f32) -> i32 {
-    crate::q16::Q16::saturating_from_num(if v.is_nan() { 0.0 } else { v }).to_bits()
+    crate::q16::q16_from_f32(v).to_bits()
 }
 
 /// Q16 bits as a number.
 fn from_q16(bits: i32) -> f32 {
-    crate::q16::Q16::from_bits(bits).to_num::<f32>()
+    crate::q16::q16_to_f32(crate::q16::Q16::from_bits(bits))
 }
 
 #[cfg(test)]

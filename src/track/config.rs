@@ -141,14 +141,25 @@ pub struct TrackerConfig {
     pub pyramid: PyramidFilter,
 }
 
+/// The least minimum eigenvalue of a new track's window (gradients of about 1.4 grey levels
+/// per pixel), whatever the threshold a followed track must keep: on a nearly flat window LK
+/// follows the noise and slides by several pixels in a hundred frames, and a feature should
+/// start well above the threshold at which it is let go.
+///
+/// ```
+/// use kestrel::track::{TrackerConfig, BIRTH_MIN_EIGEN};
+/// assert!(TrackerConfig::default().lk.min_eigen_threshold < BIRTH_MIN_EIGEN);
+/// ```
+pub const BIRTH_MIN_EIGEN: f32 = 2e-3;
+
 impl Default for TrackerConfig {
-    /// OpenCV's LK settings, except the minimum eigenvalue: 2e-3 instead of 1e-4 (gradients
-    /// of about 1.4 grey levels per pixel). LK can follow a window 20 times weaker, but on a
-    /// nearly flat window it follows the noise and slides by several pixels in a hundred
-    /// frames without any gate noticing.
+    /// OpenCV's LK settings, except the minimum eigenvalue: 5e-4 instead of 1e-4 for a
+    /// followed track, and [`BIRTH_MIN_EIGEN`] for a new one. A track whose texture fades (a
+    /// climb magnifies the ground, and blurs it) is followed down to a quarter of the texture
+    /// it needed to start; its anchor's relocation catches the drift that weak windows bring.
     fn default() -> Self {
         let lk = LkParams {
-            min_eigen_threshold: 2e-3,
+            min_eigen_threshold: 5e-4,
             ..LkParams::default()
         };
         TrackerConfig::with(lk, Detector::default())
@@ -264,10 +275,7 @@ impl TrackerConfig {
         }
         let fb_limit_sq = gate(self.fb_threshold)
             .ok_or(TrackerError::BadFbThreshold)?
-            .map(|limit| {
-                let bits = i64::from(limit.to_bits());
-                bits.saturating_mul(bits)
-            });
+            .map(squared_bits);
         let max_residual = gate(self.max_residual).ok_or(TrackerError::BadMaxResidual)?;
         let residual_ratio = gate(self.residual_ratio).ok_or(TrackerError::BadMaxResidual)?;
         let min_correlation = match self.min_correlation {
@@ -278,15 +286,13 @@ impl TrackerConfig {
         let texture_check = LucasKanade::new(LkParams {
             max_level: 0,
             max_iterations: 1,
+            min_eigen_threshold: self.lk.min_eigen_threshold.max(BIRTH_MIN_EIGEN),
             ..self.lk
         })
         .map_err(TrackerError::Lk)?;
         let max_shift_sq = gate(self.max_relocation)
             .ok_or(TrackerError::BadMaxRelocation)?
-            .map_or(i64::MAX, |limit| {
-                let bits = i64::from(limit.to_bits());
-                bits.saturating_mul(bits)
-            });
+            .map_or(i64::MAX, squared_bits);
         let fine_search = match gate(self.fine_search).ok_or(TrackerError::BadFineSearch)? {
             Some(reach) if reach == Q16::ZERO => None,
             Some(reach) => Some(reach),
@@ -297,10 +303,7 @@ impl TrackerConfig {
         }
         let fb_doubt_sq = gate(self.fb_doubt)
             .ok_or(TrackerError::BadFbThreshold)?
-            .map_or(i64::MAX, |limit| {
-                let bits = i64::from(limit.to_bits());
-                bits.saturating_mul(bits)
-            });
+            .map_or(i64::MAX, squared_bits);
         let relocate = (self.relocate_every > 0).then_some(Relocate {
             every: self.relocate_every,
             from_age: self.relocate_from_age,
@@ -322,7 +325,15 @@ impl TrackerConfig {
     }
 }
 
+/// A Q16 distance squared, in squared Q16 units.
+fn squared_bits(limit: Q16) -> i64 {
+    let bits = i64::from(limit.to_bits());
+    bits.saturating_mul(bits)
+}
+
 /// A threshold as Q16: `Some(None)` for infinity (no gate), `None` for NaN or negative.
+// Out of line: six gates share it, once per tracker.
+#[inline(never)]
 fn gate(threshold: f32) -> Option<Option<Q16>> {
     if threshold.is_nan() || threshold < 0.0 {
         None

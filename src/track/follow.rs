@@ -1,7 +1,7 @@
 //! One frame's step for every live track: LK forwards, then the gates, cheapest first.
 
 use super::anchor::Anchor;
-use super::config::Checked;
+use super::config::{Checked, Relocate};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
 use crate::lk::{LkError, PointTrack};
@@ -15,6 +15,11 @@ const TURN_AGE: u32 = 128;
 /// How often, in frames, a track is relocated onto its birth patch (from that age on) while the
 /// image turns or zooms fast and has turned since the track's birth.
 const TURNED_RELOCATE: u32 = 2;
+
+/// The age from which a track whose image has turned or zoomed since its birth is relocated
+/// on the regular schedule, at the latest: LK's translation drifts on such a track (a zoom
+/// biases it towards the window's stronger texture) long before the regular first age.
+const TURNED_FROM_AGE: u32 = 8;
 
 /// Why a track was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -99,7 +104,7 @@ impl Follow<'_, '_> {
             else {
                 break;
             };
-            match self.judge(&track, anchor, fwd, (max_residual, fast), scratch)? {
+            match self.judge(&track, anchor, fwd, (max_residual, turn), scratch)? {
                 Ok(position) => {
                     let step = fwd.step.position;
                     let moved = Track {
@@ -286,7 +291,7 @@ impl Follow<'_, '_> {
         track: &Track,
         anchor: &Anchor,
         fwd: &Forward,
-        (max_residual, fast): (Option<Q16>, bool),
+        (max_residual, turn): (Option<Q16>, Turn),
         scratch: &mut [i16],
     ) -> Result<Result<Point, Rejection>, LkError> {
         let step = fwd.step;
@@ -296,24 +301,13 @@ impl Follow<'_, '_> {
         if max_residual.is_some_and(|max| step.residual > max) {
             return Ok(Err(Rejection::Residual));
         }
+        let fast = turn.is_fast();
         let mut position = step.position;
         if let Some(relocate) = self.checked.relocate {
-            let age = track.age.saturating_add(1);
-            let on_schedule = |from: u32, every: u32| {
-                age >= from && age.wrapping_add(track.id).checked_rem(every) == Some(0)
+            position = match self.relocated(track, anchor, position, (relocate, fast)) {
+                Some(found) => found,
+                None => return Ok(Err(Rejection::Appearance)),
             };
-            // LK drifts faster on an image that turns or zooms fast: its tracks are brought
-            // back onto their features sooner and more often.
-            let quick = fast && anchor.has_turned();
-            let due = on_schedule(relocate.from_age, relocate.every)
-                || (quick && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE));
-            let frame = self.next.base();
-            if due && anchor.inside(&frame, position) {
-                match anchor.locate(&frame, position, relocate.max_shift_sq) {
-                    Some(found) if anchor.inside(&frame, found) => position = found,
-                    _ => return Ok(Err(Rejection::Appearance)),
-                }
-            }
         }
         if let Some(min) = self.checked.min_correlation {
             if !anchor.matches(&self.next.base(), position, min) {
@@ -337,6 +331,39 @@ impl Follow<'_, '_> {
             return Ok(Err(Rejection::ForwardBackward));
         }
         Ok(Ok(position))
+    }
+
+    /// Where `track`, stepped to `position`, is once relocated onto its anchor when it is due
+    /// and its anchor lies in the frame (`position` itself when not); `None` when the anchor is
+    /// not found near it.
+    fn relocated(
+        &self,
+        track: &Track,
+        anchor: &Anchor,
+        position: Point,
+        (relocate, fast): (Relocate, bool),
+    ) -> Option<Point> {
+        let age = track.age.saturating_add(1);
+        let on_schedule = |from: u32, every: u32| {
+            age >= from && age.wrapping_add(track.id).checked_rem(every) == Some(0)
+        };
+        let turned = anchor.has_turned();
+        let from_age = if turned {
+            relocate.from_age.min(TURNED_FROM_AGE)
+        } else {
+            relocate.from_age
+        };
+        let regular = on_schedule(from_age, relocate.every);
+        // LK drifts faster on an image that turns or zooms fast: its tracks are brought back
+        // onto their features sooner and more often.
+        let quick = fast && turned && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE);
+        let frame = self.next.base();
+        if !(regular || quick) || !anchor.inside(&frame, position) {
+            return Some(position);
+        }
+        anchor
+            .locate(&frame, position, relocate.max_shift_sq)
+            .filter(|&found| anchor.inside(&frame, found))
     }
 
     /// Whether the forward step `fwd` of `track` gets the backward check: when its turn comes

@@ -82,7 +82,7 @@ mod refill;
 mod turn;
 
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
-pub use config::{Detector, TrackerConfig};
+pub use config::{Detector, TrackerConfig, BIRTH_MIN_EIGEN};
 
 use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};

@@ -30,6 +30,13 @@ const SPACING_SHIFT: u32 = 1;
 /// Pixels per side under the patch, with the last samples' right and lower neighbours.
 const PATCH_SPAN: usize = ((SIDE - 1) << SPACING_SHIFT) + 2;
 
+/// Every sample of the patch, one bit each.
+const ALL_SAMPLES: u64 = (1 << SAMPLES) - 1;
+
+/// Samples of the patch that must lie in the frame for [`Anchor::locate`] to search: four
+/// of its seven rows or columns, enough for two directions of texture.
+const MIN_VISIBLE: u32 = 28;
+
 /// The appearance of a track's feature when it was born.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Anchor {
@@ -42,7 +49,7 @@ pub(super) struct Anchor {
 impl Anchor {
     /// The patch of `frame` around `position`.
     pub(super) fn capture(frame: &ImageView<'_>, position: Point) -> Self {
-        let fine = patch(frame, position);
+        let (fine, _) = patch(frame, position);
         // Grey x 16 rounded to grey: 49 bytes a track.
         Self {
             samples: fine.map(|v| (v.saturating_add(8) >> 4).min(255) as u8),
@@ -66,8 +73,10 @@ impl Anchor {
         !self.turned.is_negligible()
     }
 
-    /// The patch of `frame` around `position`, on the grid the anchor's feature now lies on.
-    fn sample(&self, frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
+    /// The patch of `frame` around `position`, on the grid the anchor's feature now lies on,
+    /// and which of its samples lie inside the frame with the neighbours they are interpolated
+    /// from, one bit each.
+    fn sample(&self, frame: &ImageView<'_>, position: Point) -> ([u16; SAMPLES], u64) {
         if self.turned.is_negligible() {
             patch(frame, position)
         } else {
@@ -84,7 +93,7 @@ impl Anchor {
         position: Point,
         min_correlation: f32,
     ) -> bool {
-        let now = self.sample(frame, position);
+        let (now, _) = self.sample(frame, position);
         let Moments {
             covariance,
             var_a,
@@ -98,34 +107,27 @@ impl Anchor {
         cov * cov.abs() >= min_correlation * min_correlation.abs() * va * vb
     }
 
-    /// True when every sample of the patch around `position` lies inside `frame`, with
-    /// neighbours to interpolate from.
-    pub(super) fn inside(&self, frame: &ImageView<'_>, position: Point) -> bool {
-        let reach = i32::try_from((SIDE / 2) << SPACING_SHIFT).unwrap_or(i32::MAX);
-        let within = |v: Q16, size: usize| {
-            let last = i32::try_from(size).unwrap_or(i32::MAX).saturating_sub(1);
-            let v = v.to_bits() >> 16;
-            v >= reach && v.saturating_add(reach) < last
-        };
-        within(position.x, frame.width()) && within(position.y, frame.height())
-    }
-
     /// Where the anchor's feature is in `frame`, searched from `start`: the position whose
     /// patch best matches the anchor after a gain and a bias, by inverse-compositional
     /// Gauss-Newton on the patch's 49 samples. `None` when the anchor has no texture in two
     /// directions, the match has no positive correlation, the search goes farther from `start`
     /// than the square root of `max_shift_sq` (squared Q16 units), or it has not settled after
-    /// [`LOCATE_ITERATIONS`] steps.
-    pub(super) fn locate(
-        &self,
-        frame: &ImageView<'_>,
-        start: Point,
-        max_shift_sq: i64,
-    ) -> Option<Point> {
-        let template = Template::of(&self.samples)?;
+    /// [`LOCATE_ITERATIONS`] steps. Near the frame's edge the samples inside it are compared,
+    /// [`Located::OutOfView`] when fewer than [`MIN_VISIBLE`] are.
+    pub(super) fn locate(&self, frame: &ImageView<'_>, start: Point, max_shift_sq: i64) -> Located {
+        let (mut now, visible) = self.sample(frame, start);
+        let mut seen = visible;
+        if visible.count_ones() < MIN_VISIBLE {
+            return Located::OutOfView;
+        }
+        let Some(template) = Template::of(&self.samples, visible) else {
+            return Located::Lost;
+        };
         let mut at = start;
         for _ in 0..LOCATE_ITERATIONS {
-            let (dx, dy) = template.step(&self.sample(frame, at))?;
+            let Some((dx, dy)) = template.step(&now, visible) else {
+                return Located::Lost;
+            };
             // The step is along the patch's grid; on the image it is turned as the grid is.
             let (dx, dy) = if self.turned.is_negligible() {
                 (dx, dy)
@@ -135,17 +137,34 @@ impl Anchor {
             };
             at = Point::new(at.x.saturating_sub(dx), at.y.saturating_sub(dy));
             if distance_sq(at, start) > max_shift_sq {
-                return None;
+                return Located::Lost;
             }
             let settled = |d: Q16| d.to_bits().saturating_abs() < SETTLED;
             if settled(dx) && settled(dy) {
-                return Some(at);
+                // The patch last sampled lies within a step of 1/32 px of `at`.
+                return if seen.count_ones() < MIN_VISIBLE {
+                    Located::OutOfView
+                } else {
+                    Located::At(at)
+                };
             }
+            (now, seen) = self.sample(frame, at);
         }
         // Still moving: the patch matches along a valley (an edge, a repeated pattern), where
         // any answer is as good as another.
-        None
+        Located::Lost
     }
+}
+
+/// What [`Anchor::locate`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Located {
+    /// The feature, here.
+    At(Point),
+    /// Not the feature, near the start.
+    Lost,
+    /// Too little of the patch in the frame to say.
+    OutOfView,
 }
 
 /// Gauss-Newton steps of [`Anchor::locate`] at most: it usually settles in two.
@@ -164,6 +183,8 @@ const MAX_STEP: f32 = 1.0;
 /// gradient with a centred sample below 2^29, of two gradients below 2^24: all exact in `i32`
 /// and `i64`.
 struct Template {
+    /// How many samples are compared.
+    n: i32,
     centred: [i32; SAMPLES],
     gradients: [(i32, i32); SAMPLES],
     /// Sums of the gradients, and of the gradients times the centred samples.
@@ -178,18 +199,29 @@ impl Template {
     // Bounded as the type's documentation shows: no operation here can overflow, and indices
     // stay inside the 7 x 7 patch.
     #[allow(clippy::arithmetic_side_effects, clippy::indexing_slicing)]
-    fn of(samples: &[u8; SAMPLES]) -> Option<Self> {
-        // SAMPLES is 49.
-        #[allow(clippy::cast_possible_truncation)]
-        let n = SAMPLES as i32;
-        let sum: i32 = samples.iter().map(|&v| i32::from(v)).sum();
+    fn of(samples: &[u8; SAMPLES], mask: u64) -> Option<Self> {
+        // At most SAMPLES, 49.
+        #[allow(clippy::cast_possible_wrap)]
+        let n = mask.count_ones() as i32;
+        if n < 3 {
+            return None;
+        }
+        let compared = |k: usize| mask >> k & 1 == 1;
+        let sum: i32 = (0..SAMPLES)
+            .filter(|&k| compared(k))
+            .map(|k| i32::from(samples[k]))
+            .sum();
         let at = |col: usize, row: usize| i32::from(samples[row * SIDE + col]);
         let mut centred = [0i32; SAMPLES];
         let mut gradients = [(0i32, 0i32); SAMPLES];
         let (mut gx, mut gy, mut gxt, mut gyt) = (0i64, 0i64, 0i64, 0i64);
         let (mut xx, mut xy, mut yy) = (0i64, 0i64, 0i64);
         // One pass, in a loop LLVM keeps rolled: the anchor is built once per relocation.
+        // Samples left out keep zeros, which add nothing to any sum.
         for (k, (c, g)) in centred.iter_mut().zip(gradients.iter_mut()).enumerate() {
+            if !compared(k) {
+                continue;
+            }
             let (col, row) = (k % SIDE, k / SIDE);
             *c = n * at(col, row) - sum;
             *g = (
@@ -212,6 +244,7 @@ impl Template {
         }
         let scale = 4.0 / (n as f32 * det);
         Some(Self {
+            n,
             centred,
             gradients,
             sum_g: (gx, gy),
@@ -226,9 +259,17 @@ impl Template {
     /// Samples are below 2^12: sums of samples stay below 2^18, of squares below 2^30, of
     /// products with a centred sample below 2^32 and with a gradient below 2^27.
     #[allow(clippy::arithmetic_side_effects)]
-    fn step(&self, now: &[u16; SAMPLES]) -> Option<(Q16, Q16)> {
+    fn step(&self, now: &[u16; SAMPLES], mask: u64) -> Option<(Q16, Q16)> {
         let (mut si, mut sii, mut sti, mut sgxi, mut sgyi) = (0i64, 0i64, 0i64, 0i64, 0i64);
-        for ((&v, &t), &(gx, gy)) in now.iter().zip(&self.centred).zip(&self.gradients) {
+        let samples = now
+            .iter()
+            .zip(&self.centred)
+            .zip(&self.gradients)
+            .enumerate();
+        for (k, ((&v, &t), &(gx, gy))) in samples {
+            if mask >> k & 1 == 0 {
+                continue;
+            }
             let v = i64::from(v);
             si += v;
             sii += v * v;
@@ -236,7 +277,7 @@ impl Template {
             sgxi += i64::from(gx) * v;
             sgyi += i64::from(gy) * v;
         }
-        let n = SAMPLES as i64;
+        let n = i64::from(self.n);
         // The least-squares gain from the centred patch `n I - sum I` to the centred anchor.
         let var = n * sii - si * si;
         if var <= 0 || sti <= 0 {
@@ -307,7 +348,7 @@ impl Moments {
 /// The 7 x 7 samples, 2 px apart, centred on `position`, bilinear, grey x 16.
 // `i < SAMPLES = 49`: the sample's column and row are small.
 #[allow(clippy::arithmetic_side_effects)]
-fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
+fn patch(frame: &ImageView<'_>, position: Point) -> ([u16; SAMPLES], u64) {
     // SIDE is 7.
     #[allow(clippy::cast_possible_truncation)]
     const HALF: i32 = (SIDE / 2) as i32;
@@ -320,29 +361,51 @@ fn patch(frame: &ImageView<'_>, position: Point) -> [u16; SAMPLES] {
     let corner = (x0.saturating_sub(reach), y0.saturating_sub(reach));
     let block = frame.block(corner.0 as isize, corner.1 as isize, PATCH_SPAN, PATCH_SPAN);
     if let Some(block) = block {
-        return weights.sample_rows(block, frame.stride());
+        return (weights.sample_rows(block, frame.stride()), ALL_SAMPLES);
     }
-    core::array::from_fn(|i| {
+    let mut out = [0u16; SAMPLES];
+    let mut visible = 0;
+    for (i, sample) in out.iter_mut().enumerate() {
         let at = |v: usize| i32::try_from(v).unwrap_or(0) - HALF;
         let (col, row) = (at(i % SIDE), at(i / SIDE));
         let sx = x0.saturating_add(col << SPACING_SHIFT);
         let sy = y0.saturating_add(row << SPACING_SHIFT);
-        weights.sample(frame, sx, sy)
-    })
+        *sample = weights.sample(frame, sx, sy);
+        visible |= u64::from(in_frame(frame, sx, sy)) << i;
+    }
+    (out, visible)
+}
+
+/// True when pixel (`x`, `y`) and its right and lower neighbours lie in `frame`.
+fn in_frame(frame: &ImageView<'_>, x: i32, y: i32) -> bool {
+    let below = |v: i32, size: usize| {
+        v >= 0 && usize::try_from(v).is_ok_and(|v| v.saturating_add(1) < size)
+    };
+    below(x, frame.width()) && below(y, frame.height())
 }
 
 /// The 7 x 7 samples of [`patch`] on its grid turned and scaled by `turn` about `position`:
 /// each sample has a fraction of its own, so this is slower than the plain grid.
-fn turned_patch(frame: &ImageView<'_>, position: Point, turn: Turn) -> [u16; SAMPLES] {
-    let spacing = (1u32 << SPACING_SHIFT) as f32;
+fn turned_patch(frame: &ImageView<'_>, position: Point, turn: Turn) -> ([u16; SAMPLES], u64) {
     let centre = position.to_f32();
-    core::array::from_fn(|i| {
-        let at = |v: usize| (v as f32 - (SIDE / 2) as f32) * spacing;
-        let (ox, oy) = turn.apply((at(i % SIDE), at(i / SIDE)));
+    let mut out = [0u16; SAMPLES];
+    let mut visible = 0;
+    for (i, sample) in out.iter_mut().enumerate() {
+        let (ox, oy) = turn.apply(grid_offset(i));
         let q16 = |v: f32| q16_from_f32(v).to_bits();
         let (x, y) = (q16(centre.0 + ox), q16(centre.1 + oy));
-        Bilinear::new(x, y).sample(frame, x >> 16, y >> 16)
-    })
+        *sample = Bilinear::new(x, y).sample(frame, x >> 16, y >> 16);
+        visible |= u64::from(in_frame(frame, x >> 16, y >> 16)) << i;
+    }
+    (out, visible)
+}
+
+/// Sample `i`'s offset from the patch's centre on its plain grid, px.
+#[allow(clippy::cast_precision_loss)]
+fn grid_offset(i: usize) -> (f32, f32) {
+    let spacing = (1u32 << SPACING_SHIFT) as f32;
+    let at = |v: usize| (v as f32 - (SIDE / 2) as f32) * spacing;
+    (at(i % SIDE), at(i / SIDE))
 }
 
 /// Bilinear weights of 8 bits for one sub-pixel fraction.
@@ -478,7 +541,10 @@ mod tests {
         // Searched from where the feature was, or from the wrong side of where it is.
         for start in [(22.0, 24.0), (23.3, 23.6)] {
             let found = anchor.locate(&moved, Point::from_f32(start.0, start.1), 4 << 32);
-            let (x, y) = found.unwrap().to_f32();
+            let Located::At(found) = found else {
+                panic!("{start:?}: {found:?}");
+            };
+            let (x, y) = found.to_f32();
             assert!(
                 (x - 22.7).abs() < 0.1 && (y - 24.0).abs() < 0.1,
                 "{start:?}: {x}, {y}"
@@ -486,10 +552,29 @@ mod tests {
         }
         // Not within a limit of 0.5 px.
         let limited = anchor.locate(&moved, Point::from_f32(22.0, 24.0), 1 << 30);
-        assert_eq!(limited, None);
-        assert!(anchor.inside(&moved, Point::from_f32(22.0, 24.0)));
-        assert!(!anchor.inside(&moved, Point::from_f32(5.5, 24.0)));
-        assert!(!anchor.inside(&moved, Point::from_f32(22.0, 41.0)));
+        assert_eq!(limited, Located::Lost);
+    }
+
+    #[test]
+    fn an_anchor_cut_by_the_edge_is_located_on_what_remains() {
+        // Born 8 px from the left edge; the feature moves 0.7 px right while the frame's edge
+        // moves 5 px right over it (a crop): 2 of the patch's 7 columns fall outside.
+        let (a, b) = (blobs(0.0), blobs(0.7));
+        let born = ImageView::packed(&a, 48, 48).unwrap();
+        let anchor = Anchor::capture(&born, Point::from_f32(8.0, 24.0));
+        let cropped = ImageView::new(&b[5..], 43, 48, 48).unwrap();
+        let (_, visible) = patch(&cropped, Point::from_f32(3.0, 24.0));
+        assert_eq!(visible.count_ones(), 5 * 7);
+        let Located::At(found) = anchor.locate(&cropped, Point::from_f32(3.0, 24.0), 4 << 32)
+        else {
+            panic!("not located");
+        };
+        let (x, y) = found.to_f32();
+        assert!((x - 3.7).abs() < 0.1 && (y - 24.0).abs() < 0.1, "{x}, {y}");
+        // With most of the patch outside, there is nothing to say.
+        let edge = ImageView::new(&b[12..], 36, 48, 48).unwrap();
+        let out = anchor.locate(&edge, Point::from_f32(-4.0, 24.0), 4 << 32);
+        assert_eq!(out, Located::OutOfView);
     }
 
     #[test]
@@ -499,7 +584,7 @@ mod tests {
         let anchor = Anchor::capture(&frame, Point::from_f32(20.0, 20.0));
         assert_eq!(
             anchor.locate(&frame, Point::from_f32(20.0, 20.0), i64::MAX),
-            None
+            Located::Lost
         );
         // Vertical stripes: no gradient along y.
         let stripes: [u8; 48 * 48] = core::array::from_fn(|i| ((i % 48) * 5) as u8);
@@ -507,7 +592,7 @@ mod tests {
         let anchor = Anchor::capture(&frame, Point::from_f32(20.0, 20.0));
         assert_eq!(
             anchor.locate(&frame, Point::from_f32(20.0, 20.0), i64::MAX),
-            None
+            Located::Lost
         );
     }
 
@@ -521,6 +606,6 @@ mod tests {
         assert_eq!(none.sample(&frame, 5, 5), 255 * 16);
         assert_eq!(none.sample(&frame, -3, -1), 0);
         let far = Point::from_bits(i32::MAX, i32::MIN);
-        assert_eq!(patch(&frame, far).len(), SAMPLES);
+        assert_eq!(patch(&frame, far).0.len(), SAMPLES);
     }
 }

@@ -1,6 +1,6 @@
 //! One frame's step for every live track: LK forwards, then the gates, cheapest first.
 
-use super::anchor::Anchor;
+use super::anchor::{Anchor, Located};
 use super::config::{Checked, Relocate};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
@@ -357,13 +357,16 @@ impl Follow<'_, '_> {
         // LK drifts faster on an image that turns or zooms fast: its tracks are brought back
         // onto their features sooner and more often.
         let quick = fast && turned && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE);
-        let frame = self.next.base();
-        if !(regular || quick) || !anchor.inside(&frame, position) {
+        if !(regular || quick) {
             return Some(position);
         }
-        anchor
-            .locate(&frame, position, relocate.max_shift_sq)
-            .filter(|&found| anchor.inside(&frame, found))
+        // Near the frame's edge the part of the patch inside it is compared: a window the
+        // edge cuts drifts most, and its track needs the check most.
+        match anchor.locate(&self.next.base(), position, relocate.max_shift_sq) {
+            Located::At(found) => Some(found),
+            Located::OutOfView => Some(position),
+            Located::Lost => None,
+        }
     }
 
     /// Whether the forward step `fwd` of `track` gets the backward check: when its turn comes

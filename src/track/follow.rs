@@ -4,6 +4,7 @@ use super::anchor::{Anchor, Located};
 use super::config::{Checked, Relocate};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
+use crate::frame::ImageView;
 use crate::lk::{LkError, PointTrack};
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
@@ -362,8 +363,10 @@ impl Follow<'_, '_> {
         }
         // Near the frame's edge the part of the patch inside it is compared: a window the
         // edge cuts drifts most, and its track needs the check most.
-        match anchor.locate(&self.next.base(), position, relocate.max_shift_sq) {
-            Located::At(found) => Some(found),
+        let frame = self.next.base();
+        match anchor.locate(&frame, position, relocate.max_shift_sq) {
+            // Found beyond the outer pixel centres: the feature is leaving the frame.
+            Located::At(found) => within(&frame, found).then_some(found),
             Located::OutOfView => Some(position),
             Located::Lost => None,
         }
@@ -444,6 +447,15 @@ pub(super) fn median<T: Ord + Copy>(values: &mut [T]) -> Option<T> {
 fn offset(p: Point, a: Point, b: Point) -> Point {
     let shift = |p: Q16, a: Q16, b: Q16| p.saturating_add(a.saturating_sub(b));
     Point::new(shift(p.x, a.x, b.x), shift(p.y, a.y, b.y))
+}
+
+/// True when `p` lies within the frame's outer pixel centres.
+fn within(frame: &ImageView<'_>, p: Point) -> bool {
+    let inside = |v: Q16, size: usize| {
+        let last = i64::try_from(size).unwrap_or(i64::MAX).saturating_sub(1);
+        (0..=last << 16).contains(&i64::from(v.to_bits()))
+    };
+    inside(p.x, frame.width()) && inside(p.y, frame.height())
 }
 
 /// Distance in px, saturating.

@@ -659,6 +659,7 @@ fn dense_settings() -> impl Strategy<Value = MotionSettings> {
                         include_filled,
                         ..MotionParams::default()
                     },
+                    ..MotionSettings::default()
                 }
             },
         )
@@ -713,7 +714,8 @@ proptest! {
         prop_assert!(camera.spread.is_finite() && camera.spread >= 0.0);
         let measured = runner.nodes().iter().filter(|n| n.is_valid()).count();
         prop_assert!(camera.inliers <= camera.measured && camera.measured <= measured);
-        prop_assert!(found.summary.boxes <= found.summary.regions);
+        prop_assert!(found.summary.boxes <= found.candidates);
+        prop_assert!(found.candidates <= found.summary.regions);
         prop_assert!(found.summary.moving <= layout.len());
         for b in &found.boxes {
             prop_assert!(b.w > 0 && b.h > 0 && b.nodes > 0, "{:?}", b);

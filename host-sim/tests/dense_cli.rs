@@ -215,7 +215,9 @@ fn motion_finds_the_objects_of_a_small_sequence() {
     assert!(output.stderr.is_empty() && output.stdout.is_empty());
 
     let found = boxes(&out);
-    for k in 1..6 {
+    // A region is reported once it has moved in two consecutive pairs: none in frame 1.
+    assert!(found.iter().all(|r| r[0] >= 2.0), "{found:?}");
+    for k in 2..6 {
         let in_frame: Vec<BoxPx> = found
             .iter()
             .filter(|r| r[0] == k as f64)
@@ -275,7 +277,17 @@ fn motion_stops_at_a_bad_frame_and_keeps_the_frames_before() {
     write_sequence(&frames, 5);
     fs::write(frames.join("0003.png"), b"\x89PNG\r\n\x1a\n truncated").unwrap();
     let (out, viz) = (scratch.path("boxes.csv"), scratch.path("viz"));
-    let output = host_sim(&[&"motion", &frames, &"--out", &out, &"--viz", &viz]);
+    // Every pair's boxes (no persistence), so that frame 1 has some.
+    let output = host_sim(&[
+        &"motion",
+        &frames,
+        &"--out",
+        &out,
+        &"--viz",
+        &viz,
+        &"--persist",
+        &"1",
+    ]);
     let message = assert_one_line_error(&output, 1, "0003.png");
     assert!(message.contains("frame 3"), "{message}");
     let found = boxes(&out);
@@ -289,7 +301,7 @@ fn motion_stops_at_a_bad_frame_and_keeps_the_frames_before() {
     textured(WIDTH / 2, HEIGHT, 0.0)
         .save(frames.join("0002.png"))
         .unwrap();
-    let output = host_sim(&[&"motion", &frames, &"--out", &out]);
+    let output = host_sim(&[&"motion", &frames, &"--out", &out, &"--persist", &"1"]);
     let message = assert_one_line_error(&output, 1, "0002.png");
     assert!(
         message.contains("frame 2") && message.contains("48x72"),

@@ -831,3 +831,57 @@ fn rate_paces_the_replay_in_real_time() {
     assert!(start.elapsed().as_secs_f64() >= 0.15);
     assert_eq!(read_ego(&out).len(), 3);
 }
+
+#[test]
+fn synth_sequence_writes_the_boxes_of_objects_of_a_given_size() {
+    let scratch = Scratch::new("object-size");
+    let out = scratch.path("flight");
+    let output = host_sim(&[
+        &"synth-sequence",
+        &"--out",
+        &out,
+        &"--frames",
+        &"5",
+        &"--width",
+        &"160",
+        &"--height",
+        &"120",
+        &"--objects",
+        &"3",
+        &"--object-size",
+        &"10-12",
+    ]);
+    assert_success(&output);
+    let text = fs::read_to_string(out.join("objects.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|f| f.parse().unwrap()).collect())
+        .collect();
+    // Three objects in each of frames 1 to 4, inside the frame, 10 to 12 px a side.
+    assert_eq!(rows.len(), 3 * 4);
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!((row[0], row[1]), ((i / 3 + 1) as f64, (i % 3) as f64));
+        assert!(row[2] >= 0.0 && row[2] + row[4] <= 160.0, "{row:?}");
+        assert!(row[3] >= 0.0 && row[3] + row[5] <= 120.0, "{row:?}");
+        assert!((10.0..=12.0).contains(&row[4]) && (10.0..=12.0).contains(&row[5]));
+    }
+    // Without objects there is no objects.csv; a bad size is refused.
+    let plain = scratch.path("plain");
+    assert_success(&host_sim(&[
+        &"synth-sequence",
+        &"--out",
+        &plain,
+        &"--frames",
+        &"2",
+    ]));
+    assert!(!plain.join("objects.csv").exists());
+    let output = host_sim(&[
+        &"synth-sequence",
+        &"--out",
+        &plain,
+        &"--object-size",
+        &"12-10",
+    ]);
+    assert_one_line_error(&output, 2, &["--object-size", "MIN must not exceed MAX"]);
+}

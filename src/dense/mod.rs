@@ -91,6 +91,7 @@ pub mod fill;
 pub mod grid;
 pub mod mask;
 pub mod motion;
+pub mod persist;
 pub mod regions;
 
 use crate::lk::LkError;

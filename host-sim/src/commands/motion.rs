@@ -2,7 +2,8 @@
 //!
 //! Between each frame and the one before it: grid flow, the camera's dominant motion fitted and
 //! removed (a still camera fits to nearly zero, so it needs no flag), the motion mask, its
-//! regions and their boxes, moved into the later frame.
+//! regions and the boxes of those that persist over consecutive pairs, moved into the later
+//! frame.
 
 use std::ffi::OsString;
 use std::io::{self, Write};
@@ -17,7 +18,7 @@ use super::dense::{refused, GridFlags};
 use super::{median, CommandError};
 use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
-use crate::dense::{MotionFrame, MotionRunner, MotionSettings};
+use crate::dense::{MotionFrame, MotionRunner, MotionSettings, PERSIST_PAIRS};
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_rgb_png;
 use crate::io::json::one_line;
@@ -37,7 +38,9 @@ pub const COLUMNS: [&str; 6] = ["frame", "x", "y", "w", "h", "nodes"];
     before_help = "host-sim motion: moving objects in a sequence. Between each frame and the one before it: the
 library's grid flow, the camera's motion fitted to it and removed (a still camera needs no
 flag: its motion fits to nearly zero), the nodes that still move, their connected regions,
-and a box around each.",
+and a box around each region that has moved in two consecutive frame pairs (--persist): a
+region that moves in one pair alone (a wrong match, a patch clipped by an exposure jump) gives
+no box, and an object's first pair gives none either.",
     after_help = "boxes.csv columns:
   frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
              more)
@@ -80,6 +83,10 @@ pub struct MotionOptions {
     /// then open it with an N x N square: 0 (no opening), 2 or 3
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = structure)]
     pub open: u8,
+    /// report a region once it has moved in N consecutive frame pairs (its box overlaps the
+    /// box of the pair before, moved by its flow), 1 to 10; 1 reports every pair's regions
+    #[arg(long, value_name = "N", default_value_t = PERSIST_PAIRS, value_parser = persist)]
+    pub persist: u8,
 }
 
 impl MotionOptions {
@@ -98,9 +105,15 @@ impl MotionOptions {
                 },
                 ..defaults
             },
+            persist_pairs: self.persist,
             ..MotionSettings::default()
         }
     }
+}
+
+fn persist(text: &str) -> Result<u8, String> {
+    let range = |n| (1..=10).contains(&n);
+    values::whole(text, range, "must be between 1 and 10").map(|n| n as u8)
 }
 
 fn threshold(text: &str) -> Result<f32, String> {

@@ -4,7 +4,8 @@
 //! DIR receives `frames/frame_NNNNN.png`, `truth.csv` (the exact homography of every frame
 //! pair, in ego.csv's layout) and, for paths that turn at a constant rate, `gyro.csv` (the exact
 //! body rates, sampled every millisecond from frame 0 to the last frame, in the layout
-//! `egomotion --gyro` reads).
+//! `egomotion --gyro` reads) and, with moving objects, `objects.csv` (every object's box in
+//! every frame from 1, as `motion` numbers its boxes, to score them).
 
 use std::path::PathBuf;
 
@@ -18,7 +19,7 @@ use crate::io::atomic::write_atomically;
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::io::{create_output_dir, Progress};
-use crate::synth::{FlightPath, FlightSequence, SceneSpec};
+use crate::synth::{FlightPath, FlightSequence, GliderSize, SceneSpec, OBJECT_SHARE};
 
 /// `host-sim synth-sequence`: its flags, their rules and its usage text.
 #[derive(Debug, Clone, PartialEq, clap::Args)]
@@ -41,6 +42,18 @@ The camera looks down at a plane with a 60 degree horizontal field of view. Path
   truth.csv                frame,h11,...,h33: the exact homography from frame-1 to frame
   gyro.csv                 t_us,gx,gy,gz: the exact body rates every millisecond, for
                            'egomotion --gyro' (all paths but shake)
+  objects.csv              frame,id,x,y,w,h,dx,dy (with --objects): every object's box in
+                           every frame from 1, as 'host-sim motion' numbers its boxes.csv;
+                           id 0 to K-1; x,y the box's left and top pixel edges and w,h its
+                           size, px (pixel column c spans c to c+1, so a box of boxes.csv
+                           compares as it is); dx,dy the object's own motion since the frame
+                           before, px: its shift less the ground's under its centre
+
+Moving objects glide on their own paths in the image, whatever the camera does. Example: 10
+to 12 px targets at 160x120 (--object-size 20-24 at 320x240) for 'host-sim motion':
+  host-sim synth-sequence --out f --path pan --width 160 --height 120 --objects 3 \\
+      --object-size 10-12 --noise 1.5
+  host-sim motion f/frames --out boxes.csv     (then match boxes.csv to f/objects.csv)
 
 Exit status: 0 success; 1 an output that cannot be written; 2 bad command line."
 )]
@@ -63,10 +76,14 @@ pub struct SynthSequenceOptions {
     /// seed of the scene, the path and the objects, >= 0
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = seed)]
     pub seed: u64,
-    /// independently moving textured rectangles, each covering 12% of the frame, 0 to 4 (2
-    /// make 20-30% of the tracks outliers)
+    /// independently moving textured rectangles, each covering 12% of the frame unless
+    /// --object-size is given, 0 to 4 (2 make 20-30% of the tracks outliers)
     #[arg(long, value_name = "K", default_value_t = 0, value_parser = objects)]
     pub objects: usize,
+    /// each object's width and height instead: PX, or MIN-MAX px to draw each side between
+    /// (10-12), 1 to 4096; such objects are textured all over, on the same paths
+    #[arg(long, value_name = "PX", value_parser = object_size)]
+    pub object_size: Option<(f64, f64)>,
     /// sensor noise, 0 to 50 grey levels
     #[arg(long, value_name = "SIGMA", default_value_t = 1.0, value_parser = noise)]
     pub noise: f64,
@@ -85,6 +102,24 @@ fn objects(text: &str) -> Result<usize, String> {
     values::whole(text, range, "must be between 0 and 4").map(|n| n as usize)
 }
 
+/// `PX` or `MIN-MAX`: the range each side of an object is drawn from.
+fn object_size(text: &str) -> Result<(f64, f64), String> {
+    let side = |part: &str| {
+        let fits = |v: f64| (1.0..=4096.0).contains(&v);
+        values::number(part, fits, "each side must be between 1 and 4096 px")
+    };
+    match text.split_once('-') {
+        None => side(text).map(|v| (v, v)),
+        Some((low, high)) => {
+            let (low, high) = (side(low)?, side(high)?);
+            match low <= high {
+                true => Ok((low, high)),
+                false => Err(format!("MIN must not exceed MAX (got \"{text}\")")),
+            }
+        }
+    }
+}
+
 fn flight_path(text: &str) -> Result<FlightPath, String> {
     FlightPath::from_name(text).ok_or_else(|| {
         let names: Vec<&str> = FlightPath::ALL.iter().map(|p| p.name()).collect();
@@ -101,7 +136,11 @@ pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
     create_output_dir(&frames_dir)?;
     let spec =
         SceneSpec::new(options.width, options.height, options.seed).with_noise(options.noise);
-    let sequence = FlightSequence::new(spec, options.path, options.objects);
+    let size = match options.object_size {
+        Some((low, high)) => GliderSize::Sides(low, high),
+        None => GliderSize::Share(OBJECT_SHARE),
+    };
+    let sequence = FlightSequence::with_object_size(spec, options.path, options.objects, size);
     let mut progress = Progress::new("synth-sequence", Some(options.frames));
     for k in 0..options.frames {
         write_png(&frames_dir.join(frame_name(k)), &sequence.frame(k))?;
@@ -112,6 +151,12 @@ pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
         &options.out.join("truth.csv"),
         truth_csv(&sequence, options.frames).as_bytes(),
     )?;
+    if options.objects > 0 {
+        write_atomically(
+            &options.out.join("objects.csv"),
+            objects_csv(&sequence, options.frames).as_bytes(),
+        )?;
+    }
     let clock = FrameClock::new(options.fps);
     if let Some(rates) = sequence.flight().body_rates(options.fps) {
         let end_us = clock.time_us(options.frames - 1);
@@ -138,6 +183,27 @@ fn truth_csv(sequence: &FlightSequence, frames: usize) -> String {
     }
     String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
 }
+
+/// `frame,id,x,y,w,h,dx,dy`: every object's box in every frame from 1, and its own motion
+/// since the frame before.
+fn objects_csv(sequence: &FlightSequence, frames: usize) -> String {
+    let mut csv = CsvWriter::new(Vec::new(), &OBJECT_COLUMNS).expect("CSV into memory");
+    for k in 1..frames {
+        let ground = sequence.flight().pair_homography(k);
+        for (id, object) in sequence.objects().iter().enumerate() {
+            let (x, y, w, h) = object.box_at(k);
+            let (before, now) = (object.position(k - 1), object.position(k));
+            let carried = ground.apply(before.0, before.1);
+            let own = (now.0 - carried.0, now.1 - carried.1);
+            let values = [x, y, w, h, own.0, own.1].map(|v| format!("{v:.3}"));
+            csv.record((k, id, values)).expect("CSV into memory");
+        }
+    }
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
+}
+
+/// Columns of objects.csv.
+const OBJECT_COLUMNS: [&str; 8] = ["frame", "id", "x", "y", "w", "h", "dx", "dy"];
 
 /// Columns of truth.csv: ego.csv's first ten.
 const TRUTH_COLUMNS: [&str; 10] = [
@@ -171,6 +237,31 @@ mod tests {
         assert_eq!(lines[1], "0,1e0,-5e-1,0e0");
         assert_eq!(lines.last().unwrap().split(',').next(), Some("2500"));
         assert_eq!(lines.len(), 1 + 4);
+    }
+
+    #[test]
+    fn object_sizes_are_one_side_or_a_range() {
+        assert_eq!(object_size("11"), Ok((11.0, 11.0)));
+        assert_eq!(object_size("10-12.5"), Ok((10.0, 12.5)));
+        assert!(object_size("12-10")
+            .unwrap_err()
+            .contains("MIN must not exceed MAX"));
+        assert!(object_size("0").unwrap_err().contains("between 1 and 4096"));
+        assert!(object_size("ten").is_err());
+    }
+
+    #[test]
+    fn objects_csv_has_a_row_per_object_and_frame_from_one() {
+        let spec = SceneSpec::new(160, 120, 3);
+        let sides = GliderSize::Sides(10.0, 12.0);
+        let sequence = FlightSequence::with_object_size(spec, FlightPath::Pan, 2, sides);
+        let text = objects_csv(&sequence, 4);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "frame,id,x,y,w,h,dx,dy");
+        assert_eq!(lines.len(), 1 + 3 * 2);
+        assert!(lines[1].starts_with("1,0,") && lines[6].starts_with("3,1,"));
+        let w: f64 = lines[1].split(',').nth(4).unwrap().parse().unwrap();
+        assert!((10.0..=12.0).contains(&w));
     }
 
     #[test]

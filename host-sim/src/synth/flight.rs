@@ -12,7 +12,7 @@
 //! The camera model is the library's default: square pixels, principal point at the frame
 //! centre, a 60 degree horizontal field of view.
 
-use super::glider::Glider;
+use super::glider::{Glider, GliderSize};
 use super::homography::Homography;
 use super::render::Lighting;
 use super::rng::SplitMix64;
@@ -234,15 +234,40 @@ impl FlightSequence {
     /// The scene of `spec` seen along `path` (drawn from the scene's seed), with `objects`
     /// independently moving objects.
     pub fn new(spec: SceneSpec, path: FlightPath, objects: usize) -> Self {
+        Self::with_object_size(spec, path, objects, GliderSize::Share(OBJECT_SHARE))
+    }
+
+    /// Like [`FlightSequence::new`], with objects of `size` (the same paths as the objects of
+    /// [`FlightSequence::new`], which cover [`OBJECT_SHARE`] of the frame each).
+    ///
+    /// ```
+    /// use host_sim::synth::{FlightPath, FlightSequence, GliderSize, SceneSpec};
+    /// let spec = SceneSpec::new(160, 120, 3);
+    /// let sequence =
+    ///     FlightSequence::with_object_size(spec, FlightPath::Pan, 2, GliderSize::Sides(10.0, 12.0));
+    /// let (_, _, w, h) = sequence.objects()[1].box_at(4);
+    /// assert!((10.0..=12.0).contains(&w) && (10.0..=12.0).contains(&h));
+    /// ```
+    pub fn with_object_size(
+        spec: SceneSpec,
+        path: FlightPath,
+        objects: usize,
+        size: GliderSize,
+    ) -> Self {
         let (w, h) = (spec.width, spec.height);
         let objects = (0..objects)
-            .map(|i| Glider::random(w, h, OBJECT_SHARE, spec.seed ^ ((i as u64 + 1) << 40)))
+            .map(|i| Glider::sized(w, h, size, spec.seed ^ ((i as u64 + 1) << 40)))
             .collect();
         Self {
             scene: Scene::new(spec),
             flight: Flight::new(path, w, h, spec.seed),
             objects,
         }
+    }
+
+    /// The independently moving objects, back to front.
+    pub fn objects(&self) -> &[Glider] {
+        &self.objects
     }
 
     /// The camera's flight: the ground truth.

@@ -9,6 +9,19 @@ use super::texture::{Extent, Texture};
 
 /// The random stream an object is drawn from (the scene's texture and noise use others).
 const OBJECT_STREAM: u64 = 4 << 32;
+/// The random stream of an object's sides when they are given in pixels.
+const SIDES_STREAM: u64 = 5 << 32;
+
+/// How large an object is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GliderSize {
+    /// Covering this share of the frame, with an aspect ratio between 0.6 and 1.6, textured
+    /// like the ground (nearly flat in places).
+    Share(f64),
+    /// Each side drawn between these two lengths, px, textured all over (no flat regions), so
+    /// that a small object is never blank.
+    Sides(f64, f64),
+}
 
 /// A textured rectangle moving across the frame.
 #[derive(Debug, Clone)]
@@ -28,11 +41,37 @@ pub struct Glider {
 impl Glider {
     /// An object covering `share` of a `width` x `height` frame, drawn from `seed`.
     pub fn random(width: usize, height: usize, share: f64, seed: u64) -> Self {
+        Self::sized(width, height, GliderSize::Share(share), seed)
+    }
+
+    /// An object of `size` in a `width` x `height` frame, drawn from `seed`. Its path is the
+    /// same whatever its size: only the size and the texture's kind depend on `size`.
+    ///
+    /// ```
+    /// use host_sim::synth::{Glider, GliderSize};
+    /// let small = Glider::sized(160, 120, GliderSize::Sides(10.0, 12.0), 5);
+    /// let large = Glider::sized(160, 120, GliderSize::Share(0.12), 5);
+    /// let (w, h) = small.sides();
+    /// assert!((10.0..=12.0).contains(&w) && (10.0..=12.0).contains(&h));
+    /// assert_eq!(small.position(7), large.position(7));
+    /// ```
+    pub fn sized(width: usize, height: usize, size: GliderSize, seed: u64) -> Self {
         let mut rng = SplitMix64::substream(seed, OBJECT_STREAM);
         let (w, h) = (width as f64, height as f64);
         let aspect = rng.uniform(0.6, 1.6);
-        let area = share * w * h;
-        let half = ((area * aspect).sqrt() / 2.0, (area / aspect).sqrt() / 2.0);
+        let half = match size {
+            GliderSize::Share(share) => {
+                let area = share * w * h;
+                ((area * aspect).sqrt() / 2.0, (area / aspect).sqrt() / 2.0)
+            }
+            GliderSize::Sides(low, high) => {
+                let mut sides = SplitMix64::substream(seed, SIDES_STREAM);
+                (
+                    sides.uniform(low, high) / 2.0,
+                    sides.uniform(low, high) / 2.0,
+                )
+            }
+        };
         let centre = (rng.uniform(0.3 * w, 0.7 * w), rng.uniform(0.3 * h, 0.7 * h));
         let extent = Extent {
             left: -half.0,
@@ -40,8 +79,12 @@ impl Glider {
             right: half.0,
             bottom: half.1,
         };
+        let texture = match size {
+            GliderSize::Share(_) => Texture::random(rng.next_u64(), extent),
+            GliderSize::Sides(..) => Texture::without_flat_regions(rng.next_u64(), extent),
+        };
         Self {
-            texture: Texture::random(rng.next_u64(), extent),
+            texture,
             half,
             centre,
             swing: (rng.uniform(0.1, 0.25) * w, rng.uniform(0.1, 0.25) * h),
@@ -57,6 +100,28 @@ impl Glider {
             self.centre.0 + self.swing.0 * angle.sin(),
             self.centre.1 + self.swing.1 * (1.3 * angle).cos(),
         )
+    }
+
+    /// Width and height, px.
+    pub fn sides(&self) -> (f64, f64) {
+        (2.0 * self.half.0, 2.0 * self.half.1)
+    }
+
+    /// The object's box in frame `k`: left and top pixel edges, width and height, px (pixel
+    /// column `c` spans the edges `c` to `c + 1`, so the box compares directly with the
+    /// whole-pixel boxes of `host-sim motion`). The object covers the pixel centres within
+    /// half a side of its centre.
+    ///
+    /// ```
+    /// use host_sim::synth::{Glider, GliderSize};
+    /// let object = Glider::sized(160, 120, GliderSize::Sides(10.0, 10.0), 2);
+    /// let (cx, cy) = object.position(3);
+    /// assert_eq!(object.box_at(3), (cx - 4.5, cy - 4.5, 10.0, 10.0));
+    /// ```
+    pub fn box_at(&self, k: usize) -> (f64, f64, f64, f64) {
+        let (cx, cy) = self.position(k);
+        let (w, h) = self.sides();
+        (cx - self.half.0 + 0.5, cy - self.half.1 + 0.5, w, h)
     }
 
     /// The object's grey level at (`x`, `y`) of frame `k`, or `None` where it is not.

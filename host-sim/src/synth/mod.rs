@@ -30,7 +30,7 @@ mod sequence;
 mod texture;
 
 pub use flight::{Flight, FlightPath, FlightSequence, OBJECT_SHARE};
-pub use glider::Glider;
+pub use glider::{Glider, GliderSize};
 pub use homography::Homography;
 pub use object::{MovingObject, Surface};
 pub use points::{grid_points, textured_points};

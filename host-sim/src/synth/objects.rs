@@ -254,6 +254,9 @@ pub enum Scenario {
     /// width (sizes and speeds grow with the width: 20 to 24 px at 320), moving 1.5 to 3 px
     /// per frame at 160 px.
     SmallTargets,
+    /// The camera of [`Scenario::SmallTargets`] over the ground alone: nothing moves but the
+    /// camera, so every box is false.
+    StillGround,
 }
 
 impl Scenario {
@@ -288,10 +291,10 @@ impl Scenario {
                 };
                 (spec, camera, 24.0)
             }
-            Scenario::SmallTargets => {
+            Scenario::SmallTargets | Scenario::StillGround => {
                 let scale = width as f64 / 160.0;
                 let spec = ObjectSpec {
-                    moving: 3,
+                    moving: if self == Scenario::StillGround { 0 } else { 3 },
                     still: 0,
                     sizes: (10.0 * scale, 12.0 * scale),
                     speeds: (1.5 * scale, 3.0 * scale),

@@ -8,6 +8,7 @@ use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
 use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
+use kestrel::dense::persist::BoxPersistence;
 use kestrel::dense::regions::MotionBox;
 use kestrel::dense::DenseError;
 use kestrel::frame::ImageView;
@@ -103,7 +104,7 @@ fn view(frame: &Frame) -> Result<ImageView<'_>, RunError> {
 }
 
 /// Every setting of the motion pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionSettings {
     /// Grid flow.
     pub dense: DenseParams,
@@ -111,6 +112,23 @@ pub struct MotionSettings {
     pub fit: FitParams,
     /// Mask, morphology and regions.
     pub motion: MotionParams,
+    /// Consecutive frame pairs a region must move in to be reported
+    /// ([`BoxPersistence`]); 1 reports every pair's boxes.
+    pub persist_pairs: u8,
+}
+
+/// The default of [`MotionSettings::persist_pairs`].
+pub const PERSIST_PAIRS: u8 = 2;
+
+impl Default for MotionSettings {
+    fn default() -> Self {
+        Self {
+            dense: DenseParams::default(),
+            fit: FitParams::default(),
+            motion: MotionParams::default(),
+            persist_pairs: PERSIST_PAIRS,
+        }
+    }
 }
 
 /// The most boxes reported per frame.
@@ -121,9 +139,11 @@ pub const MAX_BOXES: usize = 32;
 pub struct MotionFrame {
     /// The camera's motion between the two frames.
     pub camera: DominantFit,
-    /// Mask and region counts.
+    /// Mask and region counts; `boxes` counts the boxes reported, after persistence.
     pub summary: MotionSummary,
-    /// Boxes in the earlier frame, largest first.
+    /// Boxes of this pair's regions before persistence.
+    pub candidates: usize,
+    /// Boxes in the earlier frame, largest first, of the regions that persisted.
     pub boxes: Vec<MotionBox>,
     /// The cleaned mask on the grid of the earlier frame.
     pub mask: Vec<u32>,
@@ -156,6 +176,7 @@ pub struct MotionRunner {
     mask: Vec<u32>,
     motion_scratch: Vec<u32>,
     boxes: Vec<MotionBox>,
+    persistence: BoxPersistence<MAX_BOXES>,
 }
 
 impl MotionRunner {
@@ -179,6 +200,7 @@ impl MotionRunner {
             mask: vec![0; mask_words(width, height, cell)],
             motion_scratch: vec![0; motion_scratch_len(width, height, cell)],
             boxes: vec![MotionBox::default(); MAX_BOXES],
+            persistence: BoxPersistence::new(settings.persist_pairs),
         })
     }
 
@@ -214,7 +236,7 @@ impl MotionRunner {
     /// Camera motion, mask and boxes of the current nodes.
     fn detect(&mut self) -> Result<MotionFrame, RunError> {
         let camera = DominantMotion::fit(&self.layout, &self.nodes, &self.settings.fit)?;
-        let summary = self.detector.detect(
+        let mut summary = self.detector.detect(
             &self.layout,
             &self.nodes,
             &camera.motion,
@@ -222,9 +244,14 @@ impl MotionRunner {
             &mut self.motion_scratch,
             &mut self.boxes,
         )?;
+        let candidates = summary.boxes;
+        summary.boxes = self
+            .persistence
+            .confirm(&self.layout, &mut self.boxes, candidates);
         Ok(MotionFrame {
             camera,
             summary,
+            candidates,
             boxes: self.boxes.get(..summary.boxes).unwrap_or(&[]).to_vec(),
             mask: self.mask.clone(),
         })

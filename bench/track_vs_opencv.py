@@ -168,11 +168,12 @@ def main():
                     if drops:
                         drops_rows.append((width, height, path, drops))
     print("\nKestrel's tracks dropped by gate (`host-sim track --stats`):\n")
-    print("| size | path | lost | residual | appearance | forward-backward |")
-    print("|---|---|---|---|---|---|")
+    reasons = ("lost", "out_of_frame", "residual", "appearance", "relocation", "forward_backward")
+    print("| size | path | " + " | ".join(r.replace("_", " ") for r in reasons) + " |")
+    print("|---|---|" + "---|" * len(reasons))
     for width, height, path, d in drops_rows:
-        print(f"| {width}x{height} | {path} | {d.get('lost', 0)} | {d.get('residual', 0)} | "
-              f"{d.get('appearance', 0)} | {d.get('forward_backward', 0)} |")
+        counts = " | ".join(str(d.get(r, 0)) for r in reasons)
+        print(f"| {width}x{height} | {path} | {counts} |")
 
 
 if __name__ == "__main__":

@@ -236,7 +236,14 @@ fn stats_report_the_library_time_per_frame() {
     // Every track lives in 1 to 3 of the 3 frames; the drops are counted by gate.
     let life = field("mean_track_life");
     assert!((1.0..=3.0).contains(&life), "{json}");
-    for reason in ["lost", "residual", "appearance", "forward_backward"] {
+    for reason in [
+        "lost",
+        "out_of_frame",
+        "residual",
+        "appearance",
+        "relocation",
+        "forward_backward",
+    ] {
         assert!(field(reason) >= 0.0, "{json}");
     }
 }

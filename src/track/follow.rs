@@ -5,7 +5,7 @@ use super::config::{Checked, Relocate};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
 use crate::frame::ImageView;
-use crate::lk::{LkError, PointTrack};
+use crate::lk::{LkError, PointTrack, TrackStatus};
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use heapless::Vec;
@@ -25,12 +25,16 @@ const TURNED_FROM_AGE: u32 = 8;
 /// Why a track was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Rejection {
-    /// LK lost it: out of the frame, too little texture, or not converged.
+    /// LK lost it in the frame: too little texture, or not converged.
     Lost,
+    /// It left the frame.
+    OutOfFrame,
     /// Its residual is above the gate.
     Residual,
-    /// It no longer looks like the feature it was born on.
+    /// It no longer correlates with its birth patch.
     Appearance,
+    /// Its birth patch was not found near it.
+    Relocation,
     /// The way back misses its start.
     ForwardBackward,
 }
@@ -133,6 +137,12 @@ impl Follow<'_, '_> {
                 }
                 Err(Rejection::Appearance) => {
                     report.dropped_appearance = report.dropped_appearance.saturating_add(1)
+                }
+                Err(Rejection::Relocation) => {
+                    report.dropped_relocation = report.dropped_relocation.saturating_add(1)
+                }
+                Err(Rejection::OutOfFrame) => {
+                    report.dropped_out_of_frame = report.dropped_out_of_frame.saturating_add(1)
                 }
                 Err(Rejection::ForwardBackward) => {
                     report.dropped_fb = report.dropped_fb.saturating_add(1)
@@ -297,7 +307,10 @@ impl Follow<'_, '_> {
     ) -> Result<Result<Point, Rejection>, LkError> {
         let step = fwd.step;
         if !step.is_tracked() {
-            return Ok(Err(Rejection::Lost));
+            return Ok(Err(match step.status {
+                TrackStatus::OutOfBounds => Rejection::OutOfFrame,
+                _ => Rejection::Lost,
+            }));
         }
         if max_residual.is_some_and(|max| step.residual > max) {
             return Ok(Err(Rejection::Residual));
@@ -306,8 +319,8 @@ impl Follow<'_, '_> {
         let mut position = step.position;
         if let Some(relocate) = self.checked.relocate {
             position = match self.relocated(track, anchor, position, (relocate, fast)) {
-                Some(found) => found,
-                None => return Ok(Err(Rejection::Appearance)),
+                Ok(found) => found,
+                Err(rejection) => return Ok(Err(rejection)),
             };
         }
         if let Some(min) = self.checked.min_correlation {
@@ -335,15 +348,15 @@ impl Follow<'_, '_> {
     }
 
     /// Where `track`, stepped to `position`, is once relocated onto its anchor when it is due
-    /// and its anchor lies in the frame (`position` itself when not); `None` when the anchor is
-    /// not found near it.
+    /// (`position` itself when not, or when too little of its patch lies in the frame to say);
+    /// the rejection when the anchor is not found near it, or is found out of the frame.
     fn relocated(
         &self,
         track: &Track,
         anchor: &Anchor,
         position: Point,
         (relocate, fast): (Relocate, bool),
-    ) -> Option<Point> {
+    ) -> Result<Point, Rejection> {
         let age = track.age.saturating_add(1);
         let on_schedule = |from: u32, every: u32| {
             age >= from && age.wrapping_add(track.id).checked_rem(every) == Some(0)
@@ -359,16 +372,17 @@ impl Follow<'_, '_> {
         // onto their features sooner and more often.
         let quick = fast && turned && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE);
         if !(regular || quick) {
-            return Some(position);
+            return Ok(position);
         }
         // Near the frame's edge the part of the patch inside it is compared: a window the
         // edge cuts drifts most, and its track needs the check most.
         let frame = self.next.base();
         match anchor.locate(&frame, position, relocate.max_shift_sq) {
             // Found beyond the outer pixel centres: the feature is leaving the frame.
-            Located::At(found) => within(&frame, found).then_some(found),
-            Located::OutOfView => Some(position),
-            Located::Lost => None,
+            Located::At(found) if within(&frame, found) => Ok(found),
+            Located::At(_) => Err(Rejection::OutOfFrame),
+            Located::OutOfView => Ok(position),
+            Located::Lost => Err(Rejection::Relocation),
         }
     }
 

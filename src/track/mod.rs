@@ -145,10 +145,15 @@ pub struct FrameReport {
     pub dropped_fb: usize,
     /// Tracks dropped by the residual gate.
     pub dropped_residual: usize,
-    /// Tracks dropped because they no longer look like the feature they were born on, or
-    /// their birth appearance was not found near them ([`TrackerConfig::max_relocation`]).
+    /// Tracks dropped because they no longer correlate with their birth patch
+    /// ([`TrackerConfig::min_correlation`]).
     pub dropped_appearance: usize,
-    /// Tracks LK lost: out of the frame, too little texture, or not converged.
+    /// Tracks dropped because their birth patch was not found near them when they were due
+    /// for relocation ([`TrackerConfig::max_relocation`]).
+    pub dropped_relocation: usize,
+    /// Tracks that left the frame.
+    pub dropped_out_of_frame: usize,
+    /// Tracks LK lost in the frame: too little texture, or not converged.
     pub dropped_lost: usize,
     /// New tracks started in this frame.
     pub added: usize,
@@ -168,6 +173,8 @@ impl FrameReport {
         self.dropped_fb
             .saturating_add(self.dropped_residual)
             .saturating_add(self.dropped_appearance)
+            .saturating_add(self.dropped_relocation)
+            .saturating_add(self.dropped_out_of_frame)
             .saturating_add(self.dropped_lost)
     }
 }

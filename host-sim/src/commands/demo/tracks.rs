@@ -139,6 +139,8 @@ impl Stats {
         self.totals.dropped_lost += report.dropped_lost;
         self.totals.dropped_residual += report.dropped_residual;
         self.totals.dropped_appearance += report.dropped_appearance;
+        self.totals.dropped_relocation += report.dropped_relocation;
+        self.totals.dropped_out_of_frame += report.dropped_out_of_frame;
         self.totals.dropped_fb += report.dropped_fb;
         if index > 0 {
             self.totals.added += report.added;
@@ -180,9 +182,15 @@ impl Stats {
                 self.errors.len()
             ),
             format!(
-                "dropped: {} lost, {} residual, {} appearance, {} forward-backward; {} started \
-                 after frame 0",
-                t.dropped_lost, t.dropped_residual, t.dropped_appearance, t.dropped_fb, t.added
+                "dropped: {} lost, {} out of frame, {} residual, {} appearance, {} relocation, {} \
+                 forward-backward; {} started after frame 0",
+                t.dropped_lost,
+                t.dropped_out_of_frame,
+                t.dropped_residual,
+                t.dropped_appearance,
+                t.dropped_relocation,
+                t.dropped_fb,
+                t.added
             ),
             format!(
                 "library time per frame: {:.2} ms mean, {:.2} ms slowest (this machine)",

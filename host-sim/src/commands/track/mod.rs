@@ -81,7 +81,7 @@ pub struct TrackOptions {
     /// write {"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life",
     /// "drops": {reason: count}}: the library's time per frame (decoding and writing
     /// excluded), the frames a track is live in on average, and the tracks dropped by each
-    /// gate (lost, residual, appearance, forward_backward)
+    /// gate (lost, out_of_frame, residual, appearance, relocation, forward_backward)
     #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
 }
@@ -164,7 +164,7 @@ struct TrackLives {
     /// Frames each track was live in, by id (its first frame included).
     frames: HashMap<u32, u64>,
     /// Tracks dropped by each gate: lost, residual, appearance, forward-backward.
-    drops: [u64; 4],
+    drops: [u64; 6],
 }
 
 impl TrackLives {
@@ -175,8 +175,10 @@ impl TrackLives {
         let r = &tracked.report;
         let dropped = [
             r.dropped_lost,
+            r.dropped_out_of_frame,
             r.dropped_residual,
             r.dropped_appearance,
+            r.dropped_relocation,
             r.dropped_fb,
         ];
         for (total, n) in self.drops.iter_mut().zip(dropped) {
@@ -200,7 +202,14 @@ fn write_stats(
     lives: &TrackLives,
 ) -> Result<(), CommandError> {
     let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
-    let reasons = ["lost", "residual", "appearance", "forward_backward"];
+    let reasons = [
+        "lost",
+        "out_of_frame",
+        "residual",
+        "appearance",
+        "relocation",
+        "forward_backward",
+    ];
     let drops = reasons
         .iter()
         .zip(lives.drops)

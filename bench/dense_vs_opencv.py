@@ -41,6 +41,8 @@ import time
 import cv2
 import numpy as np
 
+from boxes import iou
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
 SEQUENCE = os.path.join(ROOT, "target", "release", "examples", "motion_sequence")
@@ -167,14 +169,6 @@ def write_sequence(work, kind, seed):
         truth.setdefault(int(r["frame"]), []).append((box, r["moves"] == "1"))
     frames = sorted(os.listdir(os.path.join(out, "frames")))
     return out, [os.path.join(out, "frames", f) for f in frames], truth
-
-
-def iou(a, b):
-    w = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
-    h = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
-    overlap = max(w, 0) * max(h, 0)
-    union = a[2] * a[3] + b[2] * b[3] - overlap
-    return overlap / union if union > 0 else 0.0
 
 
 def clip(box, width, height):

@@ -30,6 +30,8 @@ import tempfile
 
 import numpy as np
 
+from boxes import iou
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
 SIZES = (((160, 120), "10-12"), ((320, 240), "20-24"))
@@ -48,14 +50,6 @@ def run(*args):
 def read_rows(path):
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
-
-
-def iou(a, b):
-    w = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
-    h = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
-    overlap = max(w, 0.0) * max(h, 0.0)
-    union = a[2] * a[3] + b[2] * b[3] - overlap
-    return overlap / union if union > 0 else 0.0
 
 
 def visible_shares(objects, width, height):

@@ -281,7 +281,7 @@ fn tracks_live_as_long_as_opencvs_under_steady_yaw_and_zoom() {
     // OpenCV's lk_track.py loop (the one of bench/track_vs_opencv.py: PyrLK 21x21 on 4
     // levels forward and back within 1 px, goodFeaturesToTrack refilling to 100) on these
     // very frames (written with KESTREL_DUMP_FRAMES=DIR), OpenCV 5.0: 45.3 frames on average,
-    // 223 tracks, 100 live. Kestrel, measured: 48.7 frames, 90 live on average.
+    // 223 tracks, 100 live. Kestrel, measured: 49.5 frames, 90 live on average.
     const OPENCV_LIFE: f64 = 45.3;
     let drops = |f: fn(&FrameReport) -> usize| records.iter().map(|r| f(&r.report)).sum::<usize>();
     eprintln!(

@@ -315,9 +315,6 @@ impl Follow<'_, '_> {
         if max_residual.is_some_and(|max| step.residual > max) {
             return Ok(Err(Rejection::Residual));
         }
-        if self.leaving(track.position, step.position) {
-            return Ok(Err(Rejection::OutOfFrame));
-        }
         let fast = turn.is_fast();
         let mut position = step.position;
         if let Some(relocate) = self.checked.relocate {
@@ -348,20 +345,6 @@ impl Follow<'_, '_> {
             return Ok(Err(Rejection::ForwardBackward));
         }
         Ok(Ok(position))
-    }
-
-    /// True when a step from `from` to `to` ends within a quarter of LK's window of an edge of
-    /// the frame and moves towards it: most of the window is then outside the frame, and the
-    /// track would leave it within a frame or two, drifting on what remains.
-    fn leaving(&self, from: Point, to: Point) -> bool {
-        let margin = i64::try_from(self.checked.lk.params().window / 8).unwrap_or(0) << 16;
-        let frame = self.next.base();
-        let towards_edge = |a: Q16, b: Q16, size: usize| {
-            let (a, b) = (i64::from(a.to_bits()), i64::from(b.to_bits()));
-            let last = i64::try_from(size).unwrap_or(i64::MAX).saturating_sub(1) << 16;
-            (b < margin && b < a) || (b > last.saturating_sub(margin) && b > a)
-        };
-        towards_edge(from.x, to.x, frame.width()) || towards_edge(from.y, to.y, frame.height())
     }
 
     /// Where `track`, stepped to `position`, is once relocated onto its anchor when it is due

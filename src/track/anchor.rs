@@ -109,11 +109,11 @@ impl Anchor {
 
     /// Where the anchor's feature is in `frame`, searched from `start`: the position whose
     /// patch best matches the anchor after a gain and a bias, by inverse-compositional
-    /// Gauss-Newton on the patch's 49 samples. `None` when the anchor has no texture in two
-    /// directions, the match has no positive correlation, the search goes farther from `start`
-    /// than the square root of `max_shift_sq` (squared Q16 units), or it has not settled after
-    /// [`LOCATE_ITERATIONS`] steps. Near the frame's edge the samples inside it are compared,
-    /// [`Located::OutOfView`] when fewer than [`MIN_VISIBLE`] are.
+    /// Gauss-Newton on the patch's 49 samples. [`Located::Lost`] when the anchor has no texture
+    /// in two directions, the match has no positive correlation, the search goes farther from
+    /// `start` than the square root of `max_shift_sq` (squared Q16 units), or it has not settled
+    /// after [`LOCATE_ITERATIONS`] steps. Near the frame's edge only the samples inside it are
+    /// compared, and [`Located::OutOfView`] says that fewer than [`MIN_VISIBLE`] are.
     pub(super) fn locate(&self, frame: &ImageView<'_>, start: Point, max_shift_sq: i64) -> Located {
         let (mut now, visible) = self.sample(frame, start);
         let mut seen = visible;
@@ -177,8 +177,8 @@ const MAX_STEP: f32 = 1.0;
 /// An anchor ready for Gauss-Newton: its samples centred, their gradients and the inverse of
 /// its gradient matrix.
 ///
-/// With `n` = 49 samples `T` (grey levels, below 2^8): the centred samples `n T - sum T` are
-/// below 2^14 in magnitude, the gradients (differences of samples two apart, or twice the
+/// With `n` <= 49 samples `T` compared (grey levels, below 2^8): the centred samples
+/// `n T - sum T` are below 2^14 in magnitude, the gradients (differences of samples two apart, or twice the
 /// difference of neighbours at the patch's edges) below 2^9, and the sums of products of a
 /// gradient with a centred sample below 2^29, of two gradients below 2^24: all exact in `i32`
 /// and `i64`.

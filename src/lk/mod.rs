@@ -623,8 +623,8 @@ enum LevelOutcome {
     IterationsExhausted,
 }
 
-/// True when the Q16 position lies within the frame's pixel centres.
-fn inside(frame: &ImageView<'_>, (x, y): (i32, i32)) -> bool {
+/// True when the Q16 position (raw bits) lies within the frame's pixel centres.
+pub(crate) fn inside(frame: &ImageView<'_>, (x, y): (i32, i32)) -> bool {
     let max_x = ((frame.width() - 1) as i64) << 16;
     let max_y = ((frame.height() - 1) as i64) << 16;
     (0..=max_x).contains(&i64::from(x)) && (0..=max_y).contains(&i64::from(y))

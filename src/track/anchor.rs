@@ -178,10 +178,10 @@ const MAX_STEP: f32 = 1.0;
 /// its gradient matrix.
 ///
 /// With `n` <= 49 samples `T` compared (grey levels, below 2^8): the centred samples
-/// `n T - sum T` are below 2^14 in magnitude, the gradients (differences of samples two apart, or twice the
-/// difference of neighbours at the patch's edges) below 2^9, and the sums of products of a
-/// gradient with a centred sample below 2^29, of two gradients below 2^24: all exact in `i32`
-/// and `i64`.
+/// `n T - sum T` are below 2^14 in magnitude, the gradients (differences of samples two apart,
+/// or twice the difference of neighbours at the patch's edges) below 2^9, and the sums of
+/// products of a gradient with a centred sample below 2^29, of two gradients below 2^24: all
+/// exact in `i32` and `i64`.
 struct Template {
     /// How many samples are compared.
     n: i32,

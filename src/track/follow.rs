@@ -4,8 +4,7 @@ use super::anchor::{Anchor, Located};
 use super::config::{Checked, Relocate};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
-use crate::frame::ImageView;
-use crate::lk::{LkError, PointTrack, TrackStatus};
+use crate::lk::{inside, LkError, PointTrack, TrackStatus};
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use heapless::Vec;
@@ -379,7 +378,9 @@ impl Follow<'_, '_> {
         let frame = self.next.base();
         match anchor.locate(&frame, position, relocate.max_shift_sq) {
             // Found beyond the outer pixel centres: the feature is leaving the frame.
-            Located::At(found) if within(&frame, found) => Ok(found),
+            Located::At(found) if inside(&frame, (found.x.to_bits(), found.y.to_bits())) => {
+                Ok(found)
+            }
             Located::At(_) => Err(Rejection::OutOfFrame),
             Located::OutOfView => Ok(position),
             Located::Lost => Err(Rejection::Relocation),
@@ -461,15 +462,6 @@ pub(super) fn median<T: Ord + Copy>(values: &mut [T]) -> Option<T> {
 fn offset(p: Point, a: Point, b: Point) -> Point {
     let shift = |p: Q16, a: Q16, b: Q16| p.saturating_add(a.saturating_sub(b));
     Point::new(shift(p.x, a.x, b.x), shift(p.y, a.y, b.y))
-}
-
-/// True when `p` lies within the frame's outer pixel centres.
-fn within(frame: &ImageView<'_>, p: Point) -> bool {
-    let inside = |v: Q16, size: usize| {
-        let last = i64::try_from(size).unwrap_or(i64::MAX).saturating_sub(1);
-        (0..=last << 16).contains(&i64::from(v.to_bits()))
-    };
-    inside(p.x, frame.width()) && inside(p.y, frame.height())
 }
 
 /// Distance in px, saturating.

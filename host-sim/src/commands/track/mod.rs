@@ -19,6 +19,7 @@ use crate::io::{
     create_output_dir, describe_io_error, AtomicFile, FrameSource, OutputError, Progress,
 };
 use crate::viz::Trails;
+use kestrel::track::FrameReport;
 use serde_json::json;
 use std::collections::HashMap;
 use tracking::{
@@ -158,13 +159,26 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     outcome.map(|_| ())
 }
 
+/// The count of one reason's drops in a frame's report.
+type DropCount = fn(&FrameReport) -> usize;
+
+/// Why tracks end, as `--stats` names them, and the count of each in a frame's report.
+const DROP_REASONS: [(&str, DropCount); 6] = [
+    ("lost", |r| r.dropped_lost),
+    ("out_of_frame", |r| r.dropped_out_of_frame),
+    ("residual", |r| r.dropped_residual),
+    ("appearance", |r| r.dropped_appearance),
+    ("relocation", |r| r.dropped_relocation),
+    ("forward_backward", |r| r.dropped_fb),
+];
+
 /// How long tracks lived and why they ended, over a run.
 #[derive(Debug, Default)]
 struct TrackLives {
     /// Frames each track was live in, by id (its first frame included).
     frames: HashMap<u32, u64>,
-    /// Tracks dropped by each gate: lost, residual, appearance, forward-backward.
-    drops: [u64; 6],
+    /// Tracks dropped for each of [`DROP_REASONS`].
+    drops: [u64; DROP_REASONS.len()],
 }
 
 impl TrackLives {
@@ -172,17 +186,8 @@ impl TrackLives {
         for track in tracked.tracks {
             *self.frames.entry(track.id).or_insert(0) += 1;
         }
-        let r = &tracked.report;
-        let dropped = [
-            r.dropped_lost,
-            r.dropped_out_of_frame,
-            r.dropped_residual,
-            r.dropped_appearance,
-            r.dropped_relocation,
-            r.dropped_fb,
-        ];
-        for (total, n) in self.drops.iter_mut().zip(dropped) {
-            *total += n as u64;
+        for (total, (_, count)) in self.drops.iter_mut().zip(DROP_REASONS) {
+            *total += count(&tracked.report) as u64;
         }
     }
 
@@ -202,18 +207,10 @@ fn write_stats(
     lives: &TrackLives,
 ) -> Result<(), CommandError> {
     let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
-    let reasons = [
-        "lost",
-        "out_of_frame",
-        "residual",
-        "appearance",
-        "relocation",
-        "forward_backward",
-    ];
-    let drops = reasons
+    let drops = DROP_REASONS
         .iter()
         .zip(lives.drops)
-        .map(|(reason, n)| (reason.to_string(), json!(n)))
+        .map(|((reason, _), n)| (reason.to_string(), json!(n)))
         .collect::<serde_json::Map<_, _>>();
     let summary = one_line(&json!({
         "frames": seconds.len(),

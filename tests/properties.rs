@@ -715,7 +715,8 @@ proptest! {
         let measured = runner.nodes().iter().filter(|n| n.is_valid()).count();
         prop_assert!(camera.inliers <= camera.measured && camera.measured <= measured);
         prop_assert!(found.summary.boxes <= found.candidates);
-        prop_assert!(found.candidates <= found.summary.regions);
+        // A region may be outlined as several boxes, or as none.
+        prop_assert!(found.candidates <= host_sim::dense::MAX_BOXES);
         prop_assert!(found.summary.moving <= layout.len());
         for b in &found.boxes {
             prop_assert!(b.w > 0 && b.h > 0 && b.nodes > 0, "{:?}", b);

@@ -91,6 +91,18 @@ pub mod fill;
 pub mod grid;
 pub mod mask;
 pub mod motion;
+// Per-pixel loops over a candidate's area: indices are below the area's pixels, bounded by the
+// checked scratch side (at most 255, so `u16` pixel indices), and sums of nine differences of
+// grey x 16 stay below 2^16 (9 x 4080 = 36 720).
+#[cfg_attr(
+    not(test),
+    allow(
+        clippy::arithmetic_side_effects,
+        clippy::cast_possible_truncation,
+        clippy::indexing_slicing
+    )
+)]
+pub mod outline;
 pub mod persist;
 pub mod regions;
 
@@ -118,6 +130,9 @@ pub enum DenseError {
     MotionScratchTooShort,
     /// A threshold is negative, NaN or infinite.
     BadThreshold,
+    /// The outline's side is 0 or above [`outline::MAX_SIDE`], or its reach above
+    /// [`outline::MAX_REACH`].
+    BadOutline,
     /// The LK parameters were refused.
     Lk(LkError),
 }
@@ -138,6 +153,7 @@ impl core::fmt::Display for DenseError {
                 f.write_str("motion scratch is shorter than motion_scratch_len")
             }
             DenseError::BadThreshold => f.write_str("thresholds must be finite numbers >= 0"),
+            DenseError::BadOutline => f.write_str("outline side must be 1 to 255 px and reach at most 128 px"),
             DenseError::Lk(e) => write!(f, "tracker parameters: {e}"),
         }
     }

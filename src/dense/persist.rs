@@ -45,6 +45,7 @@ use heapless::Vec;
 
 use super::grid::GridLayout;
 use super::regions::MotionBox;
+use crate::q16::Q16;
 
 /// The boxes of the last frame pair and how many pairs in a row each region has moved.
 #[derive(Debug, Clone)]
@@ -106,6 +107,48 @@ impl<const N: usize> BoxPersistence<N> {
         self.last.clear();
     }
 
+    /// Appends to the first `count` of `boxes` (a pair's candidates, before
+    /// [`BoxPersistence::confirm`]) the boxes reported for the pair before, where their flow
+    /// takes them in this pair's earlier frame, that overlap none of them; returns the new
+    /// count. Looked at again by a pixel-level check ([`super::outline`]), they keep an object
+    /// that slows to the camera's motion, where the grid's mask loses it, for as long as its
+    /// pixels still tell it from the ground.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::GridLayout;
+    /// use kestrel::dense::persist::BoxPersistence;
+    /// use kestrel::dense::regions::MotionBox;
+    /// use kestrel::Point;
+    /// let layout = GridLayout::new(64, 64, 8).unwrap();
+    /// let b = MotionBox { x: 16, y: 16, w: 8, h: 8, nodes: 2, mean_flow: Point::from_f32(2.0, 0.0) };
+    /// let mut persistence = BoxPersistence::<4>::new(2);
+    /// let mut boxes = [b, MotionBox::default()];
+    /// persistence.confirm(&layout, &mut boxes, 1);
+    /// boxes[0] = MotionBox { x: 18, ..b };
+    /// assert_eq!(persistence.confirm(&layout, &mut boxes, 1), 1);
+    /// // The next pair's mask finds nothing: the reported box is looked at where it went.
+    /// assert_eq!(persistence.append_expected(&mut boxes, 0), 1);
+    /// assert_eq!(boxes[0].x, 20);
+    /// ```
+    pub fn append_expected(&self, boxes: &mut [MotionBox], count: usize) -> usize {
+        let mut count = count.min(boxes.len());
+        let reported = self
+            .last
+            .iter()
+            .filter(|r| r.run >= self.min_pairs.max(2) && !r.missed);
+        for expected in reported.map(|r| r.place) {
+            let (found, room) = boxes.split_at_mut(count);
+            let Some(slot) = room.first_mut() else {
+                break;
+            };
+            if !found.iter().any(|b| overlap(b, &expected)) {
+                *slot = expected;
+                count = count.saturating_add(1);
+            }
+        }
+        count
+    }
+
     /// Takes the first `count` boxes of a frame pair on the grid `layout`, in the earlier
     /// frame of the pair (as `MotionDetector::detect` gives them), and keeps in
     /// `boxes`, in their order, those whose region has moved in enough consecutive pairs;
@@ -122,7 +165,7 @@ impl<const N: usize> BoxPersistence<N> {
             };
             let mut before_run: Option<u8> = None;
             for before in self.last.iter_mut() {
-                if overlap(&before.place, &found) {
+                if overlap(&before.place, &found) && same_motion(&before.place, &found) {
                     before_run = Some(before_run.map_or(before.run, |r| r.max(before.run)));
                     before.continued = true;
                 }
@@ -173,6 +216,21 @@ fn on_rim(layout: &GridLayout, b: &MotionBox) -> bool {
     let (x, y) = (usize::from(b.x), usize::from(b.y));
     let (right, bottom) = (x.saturating_add(b.w.into()), y.saturating_add(b.h.into()));
     right <= cell || bottom <= cell || x >= last(layout.cols()) || y >= last(layout.rows())
+}
+
+/// True when the two boxes' flows differ by at most 3 px and half the larger flow on each
+/// axis: an object's flow changes little from one pair to the next (an object of 1 to 3 px a
+/// frame turning round changes by up to 4), while a chance match beside it (a patch of ground
+/// the object uncovers) has a flow of its own.
+fn same_motion(a: &MotionBox, b: &MotionBox) -> bool {
+    let within = |p: Q16, q: Q16| {
+        let (p, q) = (p.to_bits(), q.to_bits());
+        // Q16 bits of i32 values: sums and differences fit an i64.
+        let slack =
+            (3i64 << 16).saturating_add(i64::from(p.unsigned_abs().max(q.unsigned_abs())) / 2);
+        i64::from(p).abs_diff(i64::from(q)) <= slack.unsigned_abs()
+    };
+    within(a.mean_flow.x, b.mean_flow.x) && within(a.mean_flow.y, b.mean_flow.y)
 }
 
 /// True when the two boxes share at least one pixel.

@@ -12,13 +12,16 @@ use std::time::Instant;
 
 use kestrel::dense::mask::Structure;
 use kestrel::dense::motion::MotionParams;
+use kestrel::dense::outline::{OutlineParams, MAX_REACH};
 use kestrel::dense::regions::{BoxRules, MotionBox};
 
 use super::dense::{refused, GridFlags};
 use super::{median, CommandError};
 use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
-use crate::dense::{MotionFrame, MotionRunner, MotionSettings, PERSIST_PAIRS};
+use crate::dense::{
+    MotionFrame, MotionRunner, MotionSettings, OUTLINE_REACH, OUTLINE_SIDE, PERSIST_PAIRS,
+};
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_rgb_png;
 use crate::io::json::one_line;
@@ -37,10 +40,13 @@ pub const COLUMNS: [&str; 6] = ["frame", "x", "y", "w", "h", "nodes"];
     about = "boxes around what moves in a sequence, the camera's own motion removed",
     before_help = "host-sim motion: moving objects in a sequence. Between each frame and the one before it: the
 library's grid flow, the camera's motion fitted to it and removed (a still camera needs no
-flag: its motion fits to nearly zero), the nodes that still move, their connected regions,
-and a box around each region that has moved in two consecutive frame pairs (--persist): a
-region that moves in one pair alone (a wrong match, a patch clipped by an exposure jump) gives
-no box, and an object's first pair gives none either.",
+flag: its motion fits to nearly zero), the nodes that still move and their connected regions.
+Each region is then outlined at pixel level: its pixels vote for the motions that explain
+them better than the camera's, and connected pixels of one motion make one box (two objects in
+one region get two; a region of mismeasured nodes gets none). A box is reported once its
+object has moved in two consecutive frame pairs (--persist): a region that moves in one pair
+alone (a wrong match, a patch clipped by an exposure jump) gives no box, and an object's first
+pair gives none either.",
     after_help = "boxes.csv columns:
   frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
              more)
@@ -74,9 +80,18 @@ pub struct MotionOptions {
     /// a node moves when its flow differs from the camera's by more than PX, finite and > 0
     #[arg(long, value_name = "PX", default_value_t = 0.8, value_parser = threshold)]
     pub threshold: f32,
-    /// smallest region reported, in grid nodes, N >= 1
-    #[arg(long, value_name = "N", default_value_t = 3, value_parser = min_nodes)]
+    /// smallest region looked at, in grid nodes, N >= 1 (with --no-outline, smallest region
+    /// reported; 3 is then a good floor)
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = min_nodes)]
     pub min_nodes: u32,
+    /// fastest motion of an object searched beside the camera's, PX a frame on each axis, 0 to
+    /// 128 (the search runs on pyramid level 1, in steps of 2 px, then refines)
+    #[arg(long, value_name = "PX", default_value_t = OUTLINE_REACH, value_parser = reach)]
+    pub reach: usize,
+    /// box each region's grid cells (inset by half a window) instead of outlining the pixels
+    /// that move in it
+    #[arg(long)]
+    pub no_outline: bool,
     /// close the mask with an N x N square first: 0 (no closing), 2 or 3
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = structure)]
     pub close: u8,
@@ -84,7 +99,8 @@ pub struct MotionOptions {
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = structure)]
     pub open: u8,
     /// report a region once it has moved in N consecutive frame pairs (its box overlaps the
-    /// box of the pair before, moved by its flow), 1 to 10; 1 reports every pair's regions
+    /// box of the pair before, moved by its flow, and their flows agree within 2 px and a
+    /// quarter), 1 to 10; 1 reports every pair's regions
     #[arg(long, value_name = "N", default_value_t = PERSIST_PAIRS, value_parser = persist)]
     pub persist: u8,
 }
@@ -105,6 +121,11 @@ impl MotionOptions {
                 },
                 ..defaults
             },
+            outline: (!self.no_outline).then_some(OutlineParams {
+                side: OUTLINE_SIDE,
+                reach: self.reach,
+                ..OutlineParams::default()
+            }),
             persist_pairs: self.persist,
             ..MotionSettings::default()
         }
@@ -114,6 +135,11 @@ impl MotionOptions {
 fn persist(text: &str) -> Result<u8, String> {
     let range = |n| (1..=10).contains(&n);
     values::whole(text, range, "must be between 1 and 10").map(|n| n as u8)
+}
+
+fn reach(text: &str) -> Result<usize, String> {
+    let range = |n| (0..=MAX_REACH as i64).contains(&n);
+    values::whole(text, range, "must be between 0 and 128").map(|n| n as usize)
 }
 
 fn threshold(text: &str) -> Result<f32, String> {

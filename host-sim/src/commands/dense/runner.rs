@@ -8,8 +8,9 @@ use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
 use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
+use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
 use kestrel::dense::persist::BoxPersistence;
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::regions::{BoxRules, MotionBox};
 use kestrel::dense::DenseError;
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
@@ -112,6 +113,8 @@ pub struct MotionSettings {
     pub fit: FitParams,
     /// Mask, morphology and regions.
     pub motion: MotionParams,
+    /// Regions outlined at pixel resolution; `None` keeps the grid's boxes.
+    pub outline: Option<OutlineParams>,
     /// Consecutive frame pairs a region must move in to be reported
     /// ([`BoxPersistence`]); 1 reports every pair's boxes.
     pub persist_pairs: u8,
@@ -125,11 +128,31 @@ impl Default for MotionSettings {
         Self {
             dense: DenseParams::default(),
             fit: FitParams::default(),
-            motion: MotionParams::default(),
+            motion: MotionParams {
+                // The outline checks every region at pixel level: even a node alone may be a
+                // small object's.
+                boxes: BoxRules {
+                    min_nodes: 1,
+                    ..BoxRules::default()
+                },
+                ..MotionParams::default()
+            },
+            outline: Some(OutlineParams {
+                side: OUTLINE_SIDE,
+                reach: OUTLINE_REACH,
+                ..OutlineParams::default()
+            }),
             persist_pairs: PERSIST_PAIRS,
         }
     }
 }
+
+/// The widest region outlined on the host, px: larger ones keep their grid box.
+pub const OUTLINE_SIDE: usize = 96;
+
+/// The largest motion of an object beside the camera's searched on the host, px: the
+/// fastest objects of host-sim's flights at 320 x 240 move about 12 px a frame.
+pub const OUTLINE_REACH: usize = 16;
 
 /// The most boxes reported per frame.
 pub const MAX_BOXES: usize = 32;
@@ -141,7 +164,9 @@ pub struct MotionFrame {
     pub camera: DominantFit,
     /// Mask and region counts; `boxes` counts the boxes reported, after persistence.
     pub summary: MotionSummary,
-    /// Boxes of this pair's regions before persistence.
+    /// Boxes of this pair before persistence: the outlines of its regions (a region may give
+    /// several, or none) and of the boxes expected from the pair before, or the regions'
+    /// own boxes without outlining.
     pub candidates: usize,
     /// Boxes in the earlier frame, largest first, of the regions that persisted.
     pub boxes: Vec<MotionBox>,
@@ -176,6 +201,9 @@ pub struct MotionRunner {
     mask: Vec<u32>,
     motion_scratch: Vec<u32>,
     boxes: Vec<MotionBox>,
+    outliner: Option<Outliner>,
+    outline_scratch: Vec<u16>,
+    outlines: Vec<MotionBox>,
     persistence: BoxPersistence<MAX_BOXES>,
 }
 
@@ -184,6 +212,9 @@ impl MotionRunner {
     pub fn new(settings: MotionSettings, width: usize, height: usize) -> Result<Self, RunError> {
         let dense = DenseFlow::new(settings.dense)?;
         let detector = MotionDetector::new(settings.motion)?;
+        let outliner = settings.outline.map(Outliner::new).transpose()?;
+        let side = settings.outline.map_or(0, |o| o.side);
+        let reach = settings.outline.map_or(0, |o| o.reach);
         let layout = dense.layout(width, height)?;
         let cell = settings.dense.cell;
         let storage = pyramid_storage_len(width, height, settings.dense.lk.max_level);
@@ -200,6 +231,9 @@ impl MotionRunner {
             mask: vec![0; mask_words(width, height, cell)],
             motion_scratch: vec![0; motion_scratch_len(width, height, cell)],
             boxes: vec![MotionBox::default(); MAX_BOXES],
+            outliner,
+            outline_scratch: vec![0; outline_scratch_len(side, reach)],
+            outlines: vec![MotionBox::default(); MAX_BOXES],
             persistence: BoxPersistence::new(settings.persist_pairs),
         })
     }
@@ -217,24 +251,42 @@ impl MotionRunner {
     /// Takes the next frame; from the second frame on, returns what moved between the frame
     /// before and this one.
     pub fn push(&mut self, frame: Frame) -> Result<Option<MotionFrame>, RunError> {
+        let mut next_storage = std::mem::take(&mut self.next_storage);
+        let prev_storage = std::mem::take(&mut self.prev_storage);
+        let prev = self.prev.take();
+        let found = self.pair(prev.as_ref(), &prev_storage, &frame, &mut next_storage);
+        if found.is_err() {
+            // A refused frame changes nothing: the pair before stays the last one.
+            (self.prev, self.prev_storage, self.next_storage) = (prev, prev_storage, next_storage);
+            return found;
+        }
+        // The later frame and its pyramid start the next pair.
+        (self.prev, self.prev_storage, self.next_storage) =
+            (Some(frame), next_storage, prev_storage);
+        found
+    }
+
+    /// Builds `frame`'s pyramid into `next_storage` and, after a first frame, runs the pair.
+    fn pair(
+        &mut self,
+        prev: Option<&Frame>,
+        prev_storage: &[u8],
+        frame: &Frame,
+        next_storage: &mut [u8],
+    ) -> Result<Option<MotionFrame>, RunError> {
         let levels = self.settings.dense.lk.max_level;
-        let next = Pyramid::build(view(&frame)?, levels, &mut self.next_storage)?;
-        let found = match &self.prev {
-            None => None,
-            Some(prev) => {
-                let prev = Pyramid::from_storage(view(prev)?, levels, &self.prev_storage)?;
-                self.dense
-                    .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
-                Some(self.detect()?)
-            }
+        let next = Pyramid::build(view(frame)?, levels, next_storage)?;
+        let Some(prev) = prev else {
+            return Ok(None);
         };
-        std::mem::swap(&mut self.prev_storage, &mut self.next_storage);
-        self.prev = Some(frame);
-        Ok(found)
+        let prev = Pyramid::from_storage(view(prev)?, levels, prev_storage)?;
+        self.dense
+            .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
+        self.detect(&prev, &next).map(Some)
     }
 
     /// Camera motion, mask and boxes of the current nodes.
-    fn detect(&mut self) -> Result<MotionFrame, RunError> {
+    fn detect(&mut self, prev: &Pyramid<'_>, next: &Pyramid<'_>) -> Result<MotionFrame, RunError> {
         let camera = DominantMotion::fit(&self.layout, &self.nodes, &self.settings.fit)?;
         let mut summary = self.detector.detect(
             &self.layout,
@@ -244,7 +296,26 @@ impl MotionRunner {
             &mut self.motion_scratch,
             &mut self.boxes,
         )?;
-        let candidates = summary.boxes;
+        let mut candidates = summary.boxes;
+        if self.outliner.is_some() {
+            candidates = self
+                .persistence
+                .append_expected(&mut self.boxes, candidates);
+        }
+        if let Some(outliner) = &self.outliner {
+            candidates = outliner.outline(
+                prev,
+                next,
+                &camera.motion,
+                &self.layout,
+                &self.nodes,
+                &self.mask,
+                self.boxes.get(..candidates).unwrap_or(&[]),
+                &mut self.outline_scratch,
+                &mut self.outlines,
+            )?;
+            std::mem::swap(&mut self.boxes, &mut self.outlines);
+        }
         summary.boxes = self
             .persistence
             .confirm(&self.layout, &mut self.boxes, candidates);

@@ -130,8 +130,8 @@ pub enum DenseError {
     MotionScratchTooShort,
     /// A threshold is negative, NaN or infinite.
     BadThreshold,
-    /// The outline's side is 0 or above [`outline::MAX_SIDE`], or its reach above
-    /// [`outline::MAX_REACH`].
+    /// The outline's side is outside [`outline::MIN_SIDE`] to [`outline::MAX_SIDE`], or its
+    /// reach above [`outline::MAX_REACH`].
     BadOutline,
     /// The LK parameters were refused.
     Lk(LkError),
@@ -153,7 +153,7 @@ impl core::fmt::Display for DenseError {
                 f.write_str("motion scratch is shorter than motion_scratch_len")
             }
             DenseError::BadThreshold => f.write_str("thresholds must be finite numbers >= 0"),
-            DenseError::BadOutline => f.write_str("outline side must be 1 to 255 px and reach at most 128 px"),
+            DenseError::BadOutline => f.write_str("outline side must be 8 to 255 px and reach at most 128 px"),
             DenseError::Lk(e) => write!(f, "tracker parameters: {e}"),
         }
     }

@@ -100,6 +100,10 @@ pub const VOTED_FLOWS: usize = 3;
 /// The widest and highest area a scratch can hold: pixel indices are `u16`.
 pub const MAX_SIDE: usize = 255;
 
+/// The smallest [`OutlineParams::side`]: the labelling keeps four rows of sums where the
+/// flood fill's stack (`side` x `side`) will be.
+pub const MIN_SIDE: usize = 8;
+
 /// The largest [`OutlineParams::reach`], px: 65 x 65 bins at most.
 pub const MAX_REACH: usize = 128;
 
@@ -173,7 +177,7 @@ pub struct OutlineParams {
     /// labelling: a node's flow is measured over a window that also sees the ground, so the
     /// object's own pixels give its flow more exactly, and more of them then match.
     pub refinements: usize,
-    /// The widest and highest area searched, px, at most [`MAX_SIDE`]: the scratch is
+    /// The widest and highest area searched, px, [`MIN_SIDE`] to [`MAX_SIDE`]: the scratch is
     /// [`outline_scratch_len`] of it.
     pub side: usize,
     /// The largest motion searched beside the camera's, px, on each axis: the objects' flows
@@ -256,34 +260,22 @@ fn round_half(v: f32) -> i32 {
     (flow_bits(v) + (1 << 16)) >> 17
 }
 
-/// The flow a row of differences is sampled at.
-enum Shift<'a> {
-    /// The camera's, per pixel.
-    Camera(&'a dyn CameraMotion),
-    /// A whole-pixel shift.
-    Whole((i32, i32)),
-}
-
-/// Differences between `prev` and `next` shifted, over the area and a pixel around it, into
-/// `rows` (`area.w + 2` a row); the camera's are [`UNKNOWN`] where its sample leaves `next`,
-/// a shift's the largest difference.
-fn costs(
+/// Differences between `prev` and `next` sampled at the camera's flow, over the area and a
+/// pixel around it, into `rows` (`area.w + 2` a row); [`UNKNOWN`] where the camera's sample
+/// leaves `next`.
+fn camera_costs(
     prev: &ImageView<'_>,
     next: &ImageView<'_>,
     area: &Area,
-    shift: Shift<'_>,
+    camera: &dyn CameraMotion,
     rows: &mut [u16],
 ) {
     let row_len = area.w + 2;
     for r in 0..area.h + 2 {
-        let y = area.y + r - 1;
         let Some(out) = rows.get_mut(r * row_len..(r + 1) * row_len) else {
             return;
         };
-        match &shift {
-            Shift::Camera(camera) => camera_row(prev, next, *camera, area, y, out),
-            Shift::Whole((dx, dy)) => whole_row(prev, next, area, y, (*dx, *dy), out),
-        }
+        camera_row(prev, next, camera, area, area.y + r - 1, out);
     }
 }
 
@@ -308,31 +300,35 @@ fn texture_row(prev: &ImageView<'_>, area: &Area, y: usize, out: &mut [u16]) {
     }
 }
 
-/// [`flow_row`] for a whole-pixel shift: no interpolation.
-fn whole_row(
+/// The sum of absolute differences, grey x 16, between the 3 x 3 neighbourhood of (`x`, `y`)
+/// in `prev` and the one `shift` away from it in `next`; the largest sum where that one is
+/// not wholly inside `next`.
+fn sad3(
     prev: &ImageView<'_>,
     next: &ImageView<'_>,
-    area: &Area,
-    y: usize,
+    (x, y): (usize, usize),
     (dx, dy): (i32, i32),
-    out: &mut [u16],
-) {
-    let first = area.x - 1;
-    let source = prev.row(y);
-    let target = usize::try_from(y as i32 + dy).map_or(&[][..], |y| next.row(y));
-    for (i, slot) in out.iter_mut().enumerate() {
-        let x = first + i;
-        let q = usize::try_from(x as i32 + dx)
-            .ok()
-            .and_then(|x| target.get(x));
-        *slot = match (source.get(x), q) {
-            (Some(&p), Some(&q)) => (u16::from(p).abs_diff(u16::from(q))) << SUB_BITS,
-            _ => 255 << SUB_BITS,
-        };
+) -> u32 {
+    const OUTSIDE: u32 = 9 * (255 << SUB_BITS);
+    let (px, py) = (x as isize - 1, y as isize - 1);
+    let (Some(a), Some(b)) = (
+        prev.block(px, py, 3, 3),
+        next.block(px + dx as isize, py + dy as isize, 3, 3),
+    ) else {
+        return OUTSIDE;
+    };
+    let (sa, sb) = (prev.stride(), next.stride());
+    let mut sum = 0u32;
+    for r in 0..3 {
+        for c in 0..3 {
+            let (p, q) = (a.get(r * sa + c), b.get(r * sb + c));
+            sum += p.zip(q).map_or(255, |(&p, &q)| u32::from(p.abs_diff(q)));
+        }
     }
+    sum << SUB_BITS
 }
 
-/// The 3 x 3 sum around pixel `i` of the area (row by row) in `rows` of [`costs`], saturated
+/// The 3 x 3 sum around pixel `i` of the area (row by row) in `rows` of [`camera_costs`], saturated
 /// at [`UNKNOWN`].
 fn box3(rows: &[u16], area: &Area, i: usize) -> u16 {
     let row_len = area.w + 2;
@@ -347,7 +343,7 @@ fn box3(rows: &[u16], area: &Area, i: usize) -> u16 {
 }
 
 impl Outliner {
-    /// Validates `params`: a side of 1 to [`MAX_SIDE`] px and a reach of at most
+    /// Validates `params`: a side of [`MIN_SIDE`] to [`MAX_SIDE`] px and a reach of at most
     /// [`MAX_REACH`] px.
     ///
     /// ```
@@ -357,7 +353,7 @@ impl Outliner {
     /// assert_eq!(Outliner::new(wide).unwrap_err(), DenseError::BadOutline);
     /// ```
     pub fn new(params: OutlineParams) -> Result<Self, DenseError> {
-        if !(1..=MAX_SIDE).contains(&params.side) || params.reach > MAX_REACH {
+        if !(MIN_SIDE..=MAX_SIDE).contains(&params.side) || params.reach > MAX_REACH {
             return Err(DenseError::BadOutline);
         }
         Ok(Self { params })
@@ -458,12 +454,16 @@ impl Outliner {
             if flows.len == 0 {
                 continue;
             }
-            self.label(&base, &next_base, camera, &area, &flows, labels, ring);
+            self.label(
+                &base, &next_base, camera, &area, &flows, labels, ring, stack,
+            );
             for _ in 0..self.params.refinements {
                 refine(&base, &next_base, &area, &mut flows, |col, row| {
                     labels.get(row * area.w + col).copied().unwrap_or(0)
                 });
-                self.label(&base, &next_base, camera, &area, &flows, labels, ring);
+                self.label(
+                    &base, &next_base, camera, &area, &flows, labels, ring, stack,
+                );
             }
             written = self.gather(&area, &flows, candidate, labels, stack, boxes, written);
         }
@@ -507,40 +507,35 @@ impl Outliner {
         let (best_cost, best_shift) = best.split_at_mut(pixels);
         // The camera's costs first: a pixel it explains votes for nothing.
         let level1 = Scaled(camera);
-        costs(prev, next, &half, Shift::Camera(&level1), diffs);
+        camera_costs(prev, next, &half, &level1, diffs);
         for (i, cost) in best_cost.iter_mut().enumerate() {
             *cost = box3(diffs, &half, i);
         }
         let gain = (9 * u32::from(self.params.min_gain)) << SUB_BITS;
         let (camera_costs, shifts) = (best_cost, best_shift);
-        // The rows of differences, then each pixel's best cost over the shifts.
-        let (rows, tail) = diffs.split_at_mut((half.w + 2) * (half.h + 2));
-        let Some(search_cost) = tail.get_mut(..pixels) else {
-            return (Flows::EMPTY, half);
-        };
-        search_cost.iter_mut().for_each(|c| *c = u16::MAX);
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let shift = (centre.0 + dx, centre.1 + dy);
-                costs(prev, next, &half, Shift::Whole(shift), rows);
-                let bin = ((dy + reach) as usize * side + (dx + reach) as usize) as u16;
-                for i in 0..pixels {
-                    let e = box3(rows, &half, i);
-                    if e < search_cost[i] {
-                        search_cost[i] = e;
-                        shifts[i] = bin;
+        for (i, (cam, shift)) in camera_costs.iter().zip(shifts.iter_mut()).enumerate() {
+            let cam = u32::from(*cam);
+            *shift = NO_BIN;
+            // A pixel whose camera match is within the gain cannot vote: skip its search.
+            if cam >= u32::from(UNKNOWN) || cam <= gain {
+                continue;
+            }
+            let (x, y) = (half.x + i % half.w, half.y + i / half.w);
+            let mut best = (u32::MAX, NO_BIN);
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let e = sad3(prev, next, (x, y), (centre.0 + dx, centre.1 + dy));
+                    if e < best.0 {
+                        let bin = (dy + reach) as usize * side + (dx + reach) as usize;
+                        best = (e, bin as u16);
                     }
                 }
             }
-        }
-        for i in 0..pixels {
-            let (cam, e) = (u32::from(camera_costs[i]), u32::from(search_cost[i]));
-            if cam < u32::from(UNKNOWN) && e + gain < cam && 2 * e < cam {
-                if let Some(v) = votes.get_mut(usize::from(shifts[i])) {
+            if best.0 + gain < cam && 2 * best.0 < cam {
+                if let Some(v) = votes.get_mut(usize::from(best.1)) {
                     *v = v.saturating_add(1);
+                    *shift = best.1;
                 }
-            } else {
-                shifts[i] = NO_BIN;
             }
         }
         let mut flows = Flows::EMPTY;
@@ -605,7 +600,8 @@ impl Outliner {
     }
 
     /// Writes each pixel's label into `labels` (row by row, `area.w` a row): 0 for the camera
-    /// or nothing, `k + 1` for object flow `k`.
+    /// or nothing, `k + 1` for object flow `k`. `rows` holds four rows of sums (the stack is
+    /// free while labelling).
     #[allow(clippy::too_many_arguments)]
     fn label(
         &self,
@@ -616,6 +612,7 @@ impl Outliner {
         flows: &Flows,
         labels: &mut [u16],
         ring: &mut [u16],
+        rows: &mut [u16],
     ) {
         let hypotheses = flows.len.saturating_add(1);
         let row_len = area.w.saturating_add(2);
@@ -635,50 +632,64 @@ impl Outliner {
                 }
             }
             if yy > area.y {
-                self.decide_row(area, yy - 1, hypotheses, row_len, ring, labels);
+                self.decide_row(area, yy - 1, hypotheses, ring, rows, labels);
             }
         }
     }
 
-    /// Labels row `y` of the area from the three rows of differences around it.
+    /// Labels row `y` of the area from the three rows of differences around it: each
+    /// hypothesis's 3 x 3 sums along the row from running column sums, the best object flow's
+    /// kept in `rows` beside the camera's and the texture's.
     fn decide_row(
         &self,
         area: &Area,
         y: usize,
         hypotheses: usize,
-        row_len: usize,
         ring: &[u16],
+        rows: &mut [u16],
         labels: &mut [u16],
     ) {
-        let gain = (9 * u32::from(self.params.min_gain)) << SUB_BITS;
-        let column = |h: usize, x: usize| -> u32 {
-            (0..3)
-                .map(|slot| {
-                    let at = (h * 3 + slot) * row_len + x;
-                    u32::from(ring.get(at).copied().unwrap_or(UNKNOWN))
-                })
-                .sum()
-        };
-        let base = (y - area.y) * area.w;
-        for x in 0..area.w {
-            // Column x + 1 of the ring is pixel area.x + x; its neighbours are x and x + 2.
-            let sum = |h: usize| column(h, x) + column(h, x + 1) + column(h, x + 2);
-            let camera = sum(0);
-            let mut best = (u32::MAX, 0u16);
-            for h in 1..hypotheses {
-                let e = sum(h);
-                if e < best.0 {
-                    best = (e, h as u16);
+        let w = area.w;
+        let (camera, rest) = rows.split_at_mut(w);
+        let (texture, rest) = rest.split_at_mut(w);
+        let (best, rest) = rest.split_at_mut(w);
+        let (chosen, _) = rest.split_at_mut(w.min(rest.len()));
+        best.iter_mut().for_each(|b| *b = u16::MAX);
+        for h in 0..=hypotheses {
+            let kind = match h {
+                0 => Sums::Camera,
+                _ if h == hypotheses => Sums::Texture,
+                _ => Sums::Flow(h as u16),
+            };
+            let rows = ring
+                .get(h * 3 * (w + 2)..(h + 1) * 3 * (w + 2))
+                .unwrap_or(&[]);
+            sums3(rows, w, |x, e| match kind {
+                Sums::Camera => camera[x] = e,
+                Sums::Texture => texture[x] = e,
+                Sums::Flow(k) => {
+                    if e < best[x] {
+                        best[x] = e;
+                        chosen[x] = k;
+                    }
                 }
-            }
+            });
+        }
+        let gain = (9 * u32::from(self.params.min_gain)) << SUB_BITS;
+        let base = (y - area.y) * w;
+        for x in 0..w {
+            let (cam, e, tex) = (
+                u32::from(camera[x]),
+                u32::from(best[x]),
+                u32::from(texture[x]),
+            );
             // Better than the camera, and than a misalignment of half a pixel would match.
-            let texture = sum(hypotheses);
-            let object = camera < u32::from(UNKNOWN)
-                && best.0 + gain < camera
-                && 2 * best.0 < camera
-                && TEXTURE_RATIO * best.0 < texture;
+            let object = cam < u32::from(UNKNOWN)
+                && e + gain < cam
+                && 2 * e < cam
+                && TEXTURE_RATIO * e < tex;
             if let Some(label) = labels.get_mut(base + x) {
-                *label = if object { best.1 } else { 0 };
+                *label = if object { chosen[x] } else { 0 };
             }
         }
     }
@@ -739,6 +750,35 @@ impl Outliner {
             written = push_new(boxes, written, b);
         }
         written
+    }
+}
+
+/// Which row of sums [`Outliner::decide_row`] is filling.
+#[derive(Clone, Copy)]
+enum Sums {
+    Camera,
+    Texture,
+    Flow(u16),
+}
+
+/// The 3 x 3 sums of the `w` pixels of a row from its three rows of differences (`w + 2`
+/// each, in any order: a sum does not care), saturated at [`UNKNOWN`], given to `out` by
+/// column.
+fn sums3(rows: &[u16], w: usize, mut out: impl FnMut(usize, u16)) {
+    let len = w + 2;
+    let (Some(a), Some(b), Some(c)) = (
+        rows.get(..len),
+        rows.get(len..2 * len),
+        rows.get(2 * len..3 * len),
+    ) else {
+        return;
+    };
+    let column = |x: usize| u32::from(a[x]) + u32::from(b[x]) + u32::from(c[x]);
+    let (mut left, mut middle) = (column(0), column(1));
+    for x in 0..w {
+        let right = column(x + 2);
+        out(x, (left + middle + right).min(u32::from(UNKNOWN)) as u16);
+        (left, middle) = (middle, right);
     }
 }
 
@@ -940,15 +980,17 @@ fn camera_row(
         (flow_bits(dx), flow_bits(dy))
     };
     let ((x0, y0), (x1, y1)) = (at(first), at(last));
-    let steps = (last - first) as i64;
+    let steps = (last - first).max(1) as i64;
+    // Linear from one end's flow to the other's, Q16: both flows are below 2^30.
+    let step = |a: i32, b: i32| ((i64::from(b) - i64::from(a)) / steps) as i32;
+    let (sx, sy) = (step(x0, x1), step(y0, y1));
     let source = prev.row(y);
+    let mut flow = (x0, y0);
     for (i, slot) in out.iter_mut().enumerate() {
         let x = first + i;
-        // Linear from one end's flow to the other's, Q16; i <= steps.
-        let step = |a: i32, b: i32| {
-            (i64::from(a) + (i64::from(b) - i64::from(a)) * i as i64 / steps.max(1)) as i32
-        };
-        let flow = (step(x0, x1), step(y0, y1));
+        if i > 0 {
+            flow = (flow.0.saturating_add(sx), flow.1.saturating_add(sy));
+        }
         *slot = match (source.get(x), sample(next, x, y, flow)) {
             (Some(&p), Some(q)) => (u32::from(p) << SUB_BITS).abs_diff(q) as u16,
             _ => UNKNOWN,
@@ -1192,6 +1234,11 @@ mod tests {
 
     #[test]
     fn bad_parameters_and_short_buffers_are_refused() {
+        let narrow = OutlineParams {
+            side: MIN_SIDE - 1,
+            ..OutlineParams::default()
+        };
+        assert_eq!(Outliner::new(narrow).unwrap_err(), DenseError::BadOutline);
         let far = OutlineParams {
             reach: MAX_REACH + 1,
             ..OutlineParams::default()

@@ -745,13 +745,22 @@ impl Outliner {
                 let _ = found.insert(at, (outline.pixels, b));
             }
         }
-        // The largest first: a speck of chance matches beside an object is covered by it.
-        for (_, b) in found {
-            written = push_new(boxes, written, b);
+        // The largest first: a speck of chance matches on an object is covered by it, and one
+        // beside it (where it uncovers or covers the ground) is far smaller than it.
+        let largest = found.first().map_or(0, |(pixels, _)| *pixels);
+        for (pixels, b) in found {
+            if pixels.saturating_mul(SPECK_RATIO) >= largest {
+                written = push_new(boxes, written, b);
+            }
         }
         written
     }
 }
+
+/// An outline with fewer than one in this many of the pixels of its candidate's largest is a
+/// speck of chance matches at that object's edge, where it covers or uncovers ground; two
+/// objects in one region are rarely that unequal.
+const SPECK_RATIO: usize = 8;
 
 /// Which row of sums [`Outliner::decide_row`] is filling.
 #[derive(Clone, Copy)]
@@ -1054,16 +1063,27 @@ fn to_u16(v: usize) -> u16 {
     u16::try_from(v).unwrap_or(u16::MAX)
 }
 
-/// Writes `b` at `written` unless it mostly covers a box written before; returns the new
-/// count (unchanged when `boxes` is full).
+/// Writes `b` at `written` unless it and a box written before mostly cover each other, in which
+/// case the larger of the two is kept there; returns the new count (unchanged when `boxes` is
+/// full).
 fn push_new(boxes: &mut [MotionBox], written: usize, b: MotionBox) -> usize {
-    let seen = boxes.iter().take(written).any(|a| covers(a, &b));
-    match boxes.get_mut(written).filter(|_| !seen) {
-        Some(slot) => {
-            *slot = b;
-            written + 1
+    let (kept, room) = boxes.split_at_mut(written.min(boxes.len()));
+    match kept.iter_mut().find(|a| covers(a, &b)) {
+        // One object's two outlines (a speck of it seen from another candidate): the larger
+        // stays.
+        Some(a) => {
+            if b.area() > a.area() {
+                *a = b;
+            }
+            written
         }
-        None => written,
+        None => match room.first_mut() {
+            Some(slot) => {
+                *slot = b;
+                written + 1
+            }
+            None => written,
+        },
     }
 }
 

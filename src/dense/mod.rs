@@ -10,6 +10,9 @@
 //! 3. [`dominant`]: the camera's motion as a robust global affine model of the grid flow.
 //! 4. [`mask`]: nodes whose flow differs from that model, cleaned by morphology on the grid.
 //! 5. [`regions`]: connected regions of the mask as bounding boxes in pixels.
+//! 6. [`outline`]: each region outlined at pixel level, one box per object it holds (none
+//!    for a region of mismeasured nodes).
+//! 7. [`persist`]: the boxes whose objects moved in consecutive frame pairs.
 //!
 //! [`motion::MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
 //! homography from the ego-motion estimator) can replace [`dominant::DominantMotion`] through
@@ -46,6 +49,9 @@
 //! assert_eq!((size_of::<grid::GridNode>(), size_of::<regions::MotionBox>()), (12, 20));
 //! assert_eq!((bytes(160, 120), bytes(320, 240)), (19_222, 71_646));
 //! ```
+//!
+//! The outline ([`outline::Outliner`]) needs [`outline::outline_scratch_len`] words of `u16`
+//! besides: 11 778 B for regions up to 48 px and motions up to 8 px.
 //!
 //! On the stack, this module's largest buffer is the 64 B of a fill median (LK's use comes on
 //! top).

@@ -4,6 +4,7 @@
 use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
+use kestrel::dense::persist::BoxPersistence;
 use kestrel::dense::regions::MotionBox;
 use kestrel::dense::DenseError;
 use kestrel::ego::{EgoMotion, EgoStatus};
@@ -24,6 +25,8 @@ pub const MASK_WORDS: usize = mask_words(WIDTH, HEIGHT, CELL);
 pub const MOTION_SCRATCH_LEN: usize = motion_scratch_len(WIDTH, HEIGHT, CELL);
 /// Boxes kept per frame, the largest first.
 pub const MAX_BOXES: usize = 8;
+/// Consecutive frame pairs a region must move in to be boxed.
+const PERSIST_PAIRS: u8 = 2;
 
 /// The dense stage's buffers, in one `static` so that they land in `.bss`.
 pub struct DenseMemory {
@@ -51,6 +54,7 @@ impl DenseMemory {
 pub struct Dense {
     flow: DenseFlow,
     detector: MotionDetector,
+    persistence: BoxPersistence<MAX_BOXES>,
     buffers: &'static mut DenseMemory,
     boxes: [MotionBox; MAX_BOXES],
     found: usize,
@@ -71,6 +75,7 @@ impl Dense {
         Ok(Self {
             flow: DenseFlow::new(params).map_err(FrameError::Dense)?,
             detector: MotionDetector::new(MotionParams::default()).map_err(FrameError::Dense)?,
+            persistence: BoxPersistence::new(PERSIST_PAIRS),
             buffers,
             boxes: [MotionBox::default(); MAX_BOXES],
             found: 0,
@@ -99,9 +104,10 @@ impl Dense {
             .compute_predicted(prev, next, nodes, scratch, &predict)
     }
 
-    /// Marks what moves otherwise than the camera and boxes it, against the camera's motion
-    /// fitted to the tracks. Without that fit (a scene cut, a blank frame) there is nothing
-    /// reliable to tell motion from, and no box.
+    /// Marks what moves otherwise than the camera and boxes the regions that moved in two
+    /// consecutive frame pairs, against the camera's motion fitted to the tracks. Without that
+    /// fit (a scene cut, a blank frame) there is nothing reliable to tell motion from: no box,
+    /// and the regions remembered are forgotten.
     pub fn boxes(
         &mut self,
         layout: &GridLayout,
@@ -109,10 +115,11 @@ impl Dense {
     ) -> Result<MotionSummary, DenseError> {
         self.found = 0;
         if camera.status != EgoStatus::Ok {
+            self.persistence.reset();
             return Ok(MotionSummary::default());
         }
         let buffers = &mut self.buffers;
-        let found = self.detector.detect(
+        let mut found = self.detector.detect(
             layout,
             &buffers.nodes[..],
             &camera.model,
@@ -120,6 +127,9 @@ impl Dense {
             &mut buffers.motion_scratch[..],
             &mut self.boxes,
         )?;
+        found.boxes = self
+            .persistence
+            .confirm(layout, &mut self.boxes, found.boxes);
         self.found = found.boxes;
         Ok(found)
     }

@@ -57,8 +57,10 @@ impl Summary {
         self.min_live = Some(self.min_live.map_or(live, |m| m.min(live)));
         self.worst_track_error = self.worst_track_error.max(verdict.track_error);
         self.worst_flow_error = self.worst_flow_error.max(verdict.flow_error);
-        let iou = verdict.box_iou;
-        self.min_box_iou = Some(self.min_box_iou.map_or(iou, |m| m.min(iou)));
+        if verdict.box_asked {
+            let iou = verdict.box_iou;
+            self.min_box_iou = Some(self.min_box_iou.map_or(iou, |m| m.min(iou)));
+        }
         self.false_boxes += verdict.false_boxes;
     }
 

@@ -472,9 +472,11 @@ impl Outliner {
 
     /// The objects' flows in `area`, by a vote on pyramid level 1: each pixel there that the
     /// camera's flow does not explain votes for the whole-pixel shift (within the reach of the
-    /// camera's flow at the area's centre) whose 3 x 3 neighbourhood matches best; the shifts
-    /// with the most votes, each at least a quarter of [`OutlineParams::min_pixels`] (a level-1
-    /// pixel is four) and apart from those taken before, are the flows, doubled to level 0.
+    /// camera's flow at the area's centre) whose 3 x 3 neighbourhood matches best; the
+    /// [`VOTED_FLOWS`] shifts with the most votes, each at least a quarter of
+    /// [`OutlineParams::min_pixels`] (a level-1 pixel is four), are the flows, doubled to
+    /// level 0. Each voter's flow (its shift's, or a chosen one beside it) is left in `best`
+    /// past the level-1 pixels, for the first refinement.
     #[allow(clippy::too_many_arguments)]
     fn vote(
         &self,

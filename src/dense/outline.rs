@@ -2,13 +2,17 @@
 //!
 //! The grid knows where something moves only to a cell and a window: on an 8 px grid with 9 px
 //! windows a 10 px object moves a block of nodes about twice its size, and two objects a few
-//! pixels apart move one block between them. An [`Outliner`] looks at the pixels of each
-//! candidate box (grown by a margin) in the previous frame and asks which motion explains each
-//! one: the camera's, or one of the flows measured at the region's moving nodes. A pixel
-//! belongs to an object when one of those flows matches its 3 x 3 neighbourhood in the next
-//! frame clearly better than the camera's flow does (sums of absolute differences, the next
-//! frame sampled bilinearly). Connected object pixels whose flows agree within a pixel make one
-//! outline; its box is theirs, and its flow the flow most of them chose.
+//! pixels apart move one block between them; a small object faster than LK's reach leaves
+//! nodes that match nothing. An [`Outliner`] looks at the pixels of each candidate box (grown
+//! by a margin) in the previous frame and asks which motion explains each one: the camera's,
+//! or one of a few object flows. Those come from a vote on pyramid level 1 (each pixel the
+//! camera does not explain votes for the whole-pixel shift that matches it best), from the
+//! candidate's own flow and from its moving nodes, and are refined by Gauss-Newton on the
+//! pixels that chose them. A pixel belongs to an object when one of those flows matches its
+//! 3 x 3 neighbourhood in the next frame clearly better than the camera's flow does (sums of
+//! absolute differences, the next frame sampled bilinearly) and better than its own texture
+//! would allow a misaligned match to. Connected object pixels whose flows agree within a pixel
+//! make one outline; its box is theirs, and its flow the flow most of them chose.
 //!
 //! So two objects that share a region but not a pixel get a box each, a box fits its object to
 //! the pixel, and a region whose nodes were mismeasured (on still ground every pixel matches
@@ -18,9 +22,12 @@
 //! candidate too large for the scratch keeps its grid box: it is a large object, which the grid
 //! already boxes well.
 //!
-//! The work is bounded by the candidate's area: per pixel, one bilinear sample and one
-//! difference per flow tried (at most [`MAX_FLOWS`] and the camera's), and the sums of three
-//! rows kept in a ring.
+//! The work is bounded by the candidate's area: per level-1 pixel the camera does not explain,
+//! one 3 x 3 difference per shift within the reach; per level-0 pixel and labelling, one
+//! bilinear sample and one difference per flow tried (at most [`MAX_FLOWS`], the camera's and
+//! the texture), and the sums of three rows kept in a ring. It is host-sized work: on the
+//! STM32F405 one 160 x 120 frame's outlines cost millions of instructions (see
+//! `firmware/README.md`).
 //!
 //! ```
 //! use kestrel::dense::grid::{grid_len, GridLayout, GridNode};

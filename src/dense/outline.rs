@@ -335,20 +335,6 @@ fn sad3(
     sum << SUB_BITS
 }
 
-/// The 3 x 3 sum around pixel `i` of the area (row by row) in `rows` of [`camera_costs`], saturated
-/// at [`UNKNOWN`].
-fn box3(rows: &[u16], area: &Area, i: usize) -> u16 {
-    let row_len = area.w + 2;
-    let (col, row) = (i % area.w, i / area.w);
-    let mut sum = 0u32;
-    for r in row..row + 3 {
-        for c in col..col + 3 {
-            sum += u32::from(rows.get(r * row_len + c).copied().unwrap_or(UNKNOWN));
-        }
-    }
-    sum.min(u32::from(UNKNOWN)) as u16
-}
-
 impl Outliner {
     /// Validates `params`: a side of [`MIN_SIDE`] to [`MAX_SIDE`] px and a reach of at most
     /// [`MAX_REACH`] px.
@@ -517,8 +503,10 @@ impl Outliner {
         // The camera's costs first: a pixel it explains votes for nothing.
         let level1 = Scaled(camera);
         camera_costs(prev, next, &half, &level1, diffs);
-        for (i, cost) in best_cost.iter_mut().enumerate() {
-            *cost = box3(diffs, &half, i);
+        let row_len = half.w + 2;
+        for (row, costs) in best_cost.chunks_mut(half.w.max(1)).enumerate() {
+            let rows = diffs.get(row * row_len..(row + 3) * row_len).unwrap_or(&[]);
+            sums3(rows, half.w, |x, e| costs[x] = e);
         }
         let gain = (9 * u32::from(self.params.min_gain)) << SUB_BITS;
         let (camera_costs, shifts) = (best_cost, best_shift);
@@ -1098,12 +1086,7 @@ fn push_new(boxes: &mut [MotionBox], written: usize, b: MotionBox) -> usize {
 
 /// True when the two boxes share at least half the smaller one's area.
 fn covers(a: &MotionBox, b: &MotionBox) -> bool {
-    let span = |s: u16, l: u16| (u32::from(s), u32::from(s) + u32::from(l));
-    let ((ax0, ax1), (ay0, ay1)) = (span(a.x, a.w), span(a.y, a.h));
-    let ((bx0, bx1), (by0, by1)) = (span(b.x, b.w), span(b.y, b.h));
-    let w = ax1.min(bx1).saturating_sub(ax0.max(bx0));
-    let h = ay1.min(by1).saturating_sub(ay0.max(by0));
-    2 * w * h >= a.area().min(b.area()).max(1)
+    2 * a.overlap_area(b) >= a.area().min(b.area()).max(1)
 }
 
 #[cfg(test)]

@@ -70,6 +70,15 @@ struct Remembered {
     continued: bool,
 }
 
+impl Remembered {
+    /// True when its box was reported in the last pair (a run of at least `min_pairs`, and
+    /// at least two: with no persistence asked every box is reported, but none has a run to
+    /// carry on): it is looked for again in the next pair.
+    fn reported(&self, min_pairs: u8) -> bool {
+        self.run >= min_pairs.max(2) && !self.missed
+    }
+}
+
 impl<const N: usize> BoxPersistence<N> {
     /// Reports boxes whose regions moved in at least `min_pairs` consecutive pairs; 0 and 1
     /// report every box (no persistence asked).
@@ -132,10 +141,7 @@ impl<const N: usize> BoxPersistence<N> {
     /// ```
     pub fn append_expected(&self, boxes: &mut [MotionBox], count: usize) -> usize {
         let mut count = count.min(boxes.len());
-        let reported = self
-            .last
-            .iter()
-            .filter(|r| r.run >= self.min_pairs.max(2) && !r.missed);
+        let reported = self.last.iter().filter(|r| r.reported(self.min_pairs));
         for expected in reported.map(|r| r.place) {
             let (found, room) = boxes.split_at_mut(count);
             let Some(slot) = room.first_mut() else {
@@ -195,8 +201,7 @@ impl<const N: usize> BoxPersistence<N> {
         // A reported region missing from this pair alone (a miss of the mask) keeps its run
         // for the next pair, where it is expected one more step of its flow further on.
         for before in &self.last {
-            let reported = before.run >= self.min_pairs.max(2);
-            if reported && !before.missed && !before.continued {
+            if before.reported(self.min_pairs) && !before.continued {
                 let _ = next.push(Remembered {
                     place: before.place.in_next_frame(width, height),
                     missed: true,
@@ -235,13 +240,7 @@ fn same_motion(a: &MotionBox, b: &MotionBox) -> bool {
 
 /// True when the two boxes share at least one pixel.
 fn overlap(a: &MotionBox, b: &MotionBox) -> bool {
-    let span = |start: u16, len: u16| {
-        let start = u32::from(start);
-        (start, start.saturating_add(u32::from(len)))
-    };
-    let ((ax0, ax1), (ay0, ay1)) = (span(a.x, a.w), span(a.y, a.h));
-    let ((bx0, bx1), (by0, by1)) = (span(b.x, b.w), span(b.y, b.h));
-    ax0 < bx1 && bx0 < ax1 && ay0 < by1 && by0 < ay1
+    a.overlap_area(b) > 0
 }
 
 #[cfg(test)]

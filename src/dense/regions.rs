@@ -54,6 +54,28 @@ impl MotionBox {
         u32::from(self.w).saturating_mul(u32::from(self.h))
     }
 
+    /// Pixels this box shares with `other`.
+    ///
+    /// ```
+    /// # use kestrel::dense::regions::MotionBox;
+    /// let a = MotionBox { x: 0, y: 0, w: 8, h: 8, ..MotionBox::default() };
+    /// let b = MotionBox { x: 4, y: 6, w: 8, h: 8, ..MotionBox::default() };
+    /// assert_eq!(a.overlap_area(&b), 8);
+    /// assert_eq!(a.overlap_area(&MotionBox { x: 8, ..b }), 0);
+    /// ```
+    pub fn overlap_area(&self, other: &MotionBox) -> u32 {
+        let shared = |a: u16, al: u16, b: u16, bl: u16| {
+            let (a, b) = (u32::from(a), u32::from(b));
+            let end = a
+                .saturating_add(u32::from(al))
+                .min(b.saturating_add(u32::from(bl)));
+            end.saturating_sub(a.max(b))
+        };
+        let w = shared(self.x, self.w, other.x, other.w);
+        // Below 2^32: both factors are below 2^17.
+        w.saturating_mul(shared(self.y, self.h, other.y, other.h))
+    }
+
     /// The box moved by its mean flow (rounded to whole pixels) and clipped to a `width` x
     /// `height` frame: where the region is in the next frame.
     ///

@@ -19,9 +19,7 @@ use super::dense::{refused, GridFlags};
 use super::{median, CommandError};
 use crate::cli::values::{self, path};
 use crate::dense::picture::motion_overlay;
-use crate::dense::{
-    MotionFrame, MotionRunner, MotionSettings, OUTLINE_REACH, OUTLINE_SIDE, PERSIST_PAIRS,
-};
+use crate::dense::{MotionFrame, MotionRunner, MotionSettings, OUTLINE_REACH, PERSIST_PAIRS};
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_rgb_png;
 use crate::io::json::one_line;
@@ -109,6 +107,7 @@ impl MotionOptions {
     /// Every setting of the pipeline.
     pub fn settings(&self) -> MotionSettings {
         let defaults = MotionParams::default();
+        let host_defaults = MotionSettings::default();
         MotionSettings {
             dense: self.grid.params(),
             motion: MotionParams {
@@ -121,13 +120,15 @@ impl MotionOptions {
                 },
                 ..defaults
             },
-            outline: (!self.no_outline).then_some(OutlineParams {
-                side: OUTLINE_SIDE,
-                reach: self.reach,
-                ..OutlineParams::default()
-            }),
+            outline: host_defaults
+                .outline
+                .filter(|_| !self.no_outline)
+                .map(|outline| OutlineParams {
+                    reach: self.reach,
+                    ..outline
+                }),
             persist_pairs: self.persist,
-            ..MotionSettings::default()
+            ..host_defaults
         }
     }
 }

@@ -126,9 +126,11 @@ fn assert_accurate(width: usize, height: usize) {
         100.0 * over_one as f32 / all.errors.len() as f32,
         all.filled
     );
-    assert!(median(&all.errors) <= 0.15, "median error");
-    // The scenes have flat patches, but most of a frame is textured.
-    assert!(valid >= 0.6, "valid share");
+    // Measured 0.044 px at 160x120 and 0.046 px at 320x240 (0.093-0.094 px without the
+    // smoothing of neighbours that move alike).
+    assert!(median(&all.errors) <= 0.06, "median error");
+    // The scenes have flat patches, but most of a frame is textured: 86-89 % measured.
+    assert!(valid >= 0.8, "valid share");
     assert!(
         over_one as f32 <= 0.02 * all.errors.len() as f32,
         "gross errors"

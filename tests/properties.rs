@@ -641,7 +641,7 @@ fn dense_settings() -> impl Strategy<Value = MotionSettings> {
     )
         .prop_map(
             |(cell, window, max_level, fill_passes, include_filled, max_residual)| {
-                let defaults = DenseParams::default();
+                let defaults = DenseParams::for_motion();
                 MotionSettings {
                     dense: DenseParams {
                         cell,

@@ -61,9 +61,10 @@ pub struct Dense {
 }
 
 impl Dense {
-    /// The library's dense defaults (8 px cells, 9x9 windows) on the tracker's three levels.
+    /// The library's motion-detection defaults (8 px cells, 9x9 windows) on the tracker's three
+    /// levels.
     pub fn new(buffers: &'static mut DenseMemory) -> Result<Self, FrameError> {
-        let defaults = DenseParams::default();
+        let defaults = DenseParams::for_motion();
         let params = DenseParams {
             cell: CELL,
             lk: LkParams {

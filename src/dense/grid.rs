@@ -377,7 +377,8 @@ impl GridNode {
 /// ```
 /// use kestrel::dense::grid::DenseParams;
 /// let p = DenseParams::default();
-/// assert_eq!((p.cell, p.lk.window, p.lk.min_eigen_threshold, p.fill_passes), (8, 9, 3e-3, 2));
+/// assert_eq!((p.cell, p.lk.window, p.lk.min_eigen_threshold, p.fill_passes), (8, 9, 7e-4, 2));
+/// assert_eq!(DenseParams::for_motion().lk.min_eigen_threshold, 3e-3);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -403,8 +404,35 @@ impl DenseParams {
     /// The default LK window in dense mode, px.
     pub const DEFAULT_WINDOW: usize = 9;
     /// The default LK minimum eigenvalue in dense mode, in OpenCV's scale (see
-    /// [`LkParams::min_eigen_threshold`]).
-    pub const DEFAULT_MIN_EIGEN: f32 = 3e-3;
+    /// [`LkParams::min_eigen_threshold`]): gradients of about 0.85 grey levels per pixel. Weaker
+    /// windows measure within a few tenths of a pixel, which [`super::smooth`] brings down
+    /// where their neighbours move alike; below it, three quarters of a textured frame's
+    /// nodes are measured.
+    pub const DEFAULT_MIN_EIGEN: f32 = 7e-4;
+    /// The minimum eigenvalue for motion detection: gradients of about 1.7 grey levels per
+    /// pixel. A weak window's error looks like motion of its own to the mask, so motion
+    /// detection measures only the nodes it can trust.
+    pub const MOTION_MIN_EIGEN: f32 = 3e-3;
+
+    /// The defaults with [`DenseParams::MOTION_MIN_EIGEN`]: what
+    /// [`super::motion::MotionDetector`]'s callers track the grid with.
+    ///
+    /// ```
+    /// use kestrel::dense::grid::DenseParams;
+    /// let (grid, motion) = (DenseParams::default(), DenseParams::for_motion());
+    /// assert!(motion.lk.min_eigen_threshold > grid.lk.min_eigen_threshold);
+    /// assert_eq!(DenseParams { lk: grid.lk, ..motion }, grid);
+    /// ```
+    pub fn for_motion() -> Self {
+        let defaults = Self::default();
+        Self {
+            lk: LkParams {
+                min_eigen_threshold: Self::MOTION_MIN_EIGEN,
+                ..defaults.lk
+            },
+            ..defaults
+        }
+    }
 }
 
 impl Default for DenseParams {

@@ -7,6 +7,7 @@
 //! 1. [`grid`]: LK flow at every node of a grid (node centres at `cell/2 + k·cell`), with a
 //!    validity per node from texture, convergence and the intensity residual.
 //! 2. [`fill`]: invalid nodes filled from their valid neighbours, marked as filled.
+//!    [`smooth`] can then average each measured node with the neighbours that move alike.
 //! 3. [`dominant`]: the camera's motion as a robust global affine model of the grid flow.
 //! 4. [`mask`]: nodes whose flow differs from that model, cleaned by morphology on the grid.
 //! 5. [`regions`]: connected regions of the mask as bounding boxes in pixels.
@@ -111,6 +112,10 @@ pub mod motion;
 pub mod outline;
 pub mod persist;
 pub mod regions;
+// Sums over at most nine neighbours of Q16 differences below 2^32, times offsets of at most 1,
+// and the 3 x 3 adjugate's entries of at most 81: below 2^46 in `i64` (see `FitSums`).
+#[cfg_attr(not(test), allow(clippy::arithmetic_side_effects))]
+pub mod smooth;
 
 use crate::lk::LkError;
 
@@ -134,6 +139,8 @@ pub enum DenseError {
     MaskTooShort,
     /// The motion scratch is shorter than [`motion::motion_scratch_len`].
     MotionScratchTooShort,
+    /// The smoothing's rows are shorter than [`smooth::smooth_scratch_len`].
+    SmoothScratchTooShort,
     /// A threshold is negative, NaN or infinite.
     BadThreshold,
     /// The outline's side is outside [`outline::MIN_SIDE`] to [`outline::MAX_SIDE`], or its
@@ -157,6 +164,9 @@ impl core::fmt::Display for DenseError {
             DenseError::MaskTooShort => f.write_str("mask buffer is shorter than mask_words"),
             DenseError::MotionScratchTooShort => {
                 f.write_str("motion scratch is shorter than motion_scratch_len")
+            }
+            DenseError::SmoothScratchTooShort => {
+                f.write_str("smoothing rows are shorter than smooth_scratch_len")
             }
             DenseError::BadThreshold => f.write_str("thresholds must be finite numbers >= 0"),
             DenseError::BadOutline => f.write_str("outline side must be 8 to 255 px and reach at most 128 px"),

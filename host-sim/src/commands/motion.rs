@@ -10,6 +10,7 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use kestrel::dense::grid::DenseParams;
 use kestrel::dense::mask::Structure;
 use kestrel::dense::motion::MotionParams;
 use kestrel::dense::outline::{OutlineParams, MAX_REACH};
@@ -109,7 +110,7 @@ impl MotionOptions {
         let defaults = MotionParams::default();
         let host_defaults = MotionSettings::default();
         MotionSettings {
-            dense: self.grid.params(),
+            dense: self.grid.params(DenseParams::for_motion()),
             motion: MotionParams {
                 threshold: self.threshold,
                 close: square(self.close),

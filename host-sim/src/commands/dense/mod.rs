@@ -39,10 +39,11 @@ pub const COLUMNS: [&str; 6] = ["x", "y", "dx", "dy", "ok", "status"];
     about = "flow at every node of a grid, as CSV, a Middlebury .flo field and picture",
     before_help = "host-sim dense: the library's grid flow from frame A to frame B: LK at every node of a
 regular grid, each node checked for texture, convergence and residual, the rest filled from
-their neighbours.",
+their neighbours, then each measured node averaged with the neighbours that move alike.",
     after_help = "grid.csv columns:
   x,y      the node centre in A: (cell/2 + i*cell, cell/2 + j*cell)
-  dx,dy    its flow from A to B, px (0 when unknown; filled from the neighbours when filled)
+  dx,dy    its flow from A to B, px (0 when unknown; filled from the neighbours when filled;
+           smoothed when measured, unless --smooth-gate 0)
   ok       1 when measured; 0 otherwise
   status   tracked, low_texture, residual (the window does not match), lost (not converged
            or left the frame) or filled
@@ -74,7 +75,11 @@ pub struct DenseOptions {
     pub png: Option<PathBuf>,
     #[command(flatten)]
     pub grid: GridFlags,
-    /// run the core (build both pyramids, compute the grid) N times, N >= 1
+    /// average each measured node with the measured neighbours whose flow is within PX of its
+    /// own (a local affine fit); 0 leaves the measurements alone
+    #[arg(long, value_name = "PX", default_value_t = kestrel::dense::smooth::DEFAULT_GATE, value_parser = smooth_gate)]
+    pub smooth_gate: f32,
+    /// run the core (build both pyramids, compute the grid, smooth it) N times, N >= 1
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = values::repeat)]
     pub repeat: usize,
     /// write {"nodes": n, "repeat": N, "median_core_seconds": t}; decoding is not timed
@@ -97,9 +102,8 @@ pub struct GridFlags {
 }
 
 impl GridFlags {
-    /// The library's dense parameters with these flags in place.
-    pub fn params(&self) -> DenseParams {
-        let defaults = DenseParams::default();
+    /// `defaults` with these flags in place.
+    pub fn params(&self, defaults: DenseParams) -> DenseParams {
         DenseParams {
             cell: self.cell,
             lk: LkParams {
@@ -116,6 +120,12 @@ impl GridFlags {
 fn cell(text: &str) -> Result<usize, String> {
     let range = |n| (1..=kestrel::frame::MAX_DIMENSION as i64).contains(&n);
     values::whole(text, range, "must be between 1 and 4096").map(|n| n as usize)
+}
+
+/// A smoothing gate: 0 to 8 px.
+fn smooth_gate(text: &str) -> Result<f32, String> {
+    let range = |v: f64| (0.0..=8.0).contains(&v);
+    values::number(text, range, "must be between 0 and 8 px").map(|v| v as f32)
 }
 
 /// The outputs, created before any work so an unwritable path fails fast.
@@ -154,9 +164,12 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     let next = read_grey(&options.next)?;
     check_same_size(&options.prev, &options.next, &prev, &next)?;
     let size = (prev.width, prev.height);
-    let params = options.grid.params();
+    let params = options.grid.params(DenseParams::default());
     let refused = |e| refused(e, &params, &options.prev, size);
-    let mut runner = DenseRunner::new(params, size.0, size.1).map_err(refused)?;
+    let gate = (options.smooth_gate > 0.0).then_some(options.smooth_gate);
+    let mut runner = DenseRunner::new(params, size.0, size.1)
+        .map_err(refused)?
+        .with_smoothing(gate);
     let ((), seconds) = time_core(options.repeat, || {
         runner.compute(&prev, &next).map(|_| ()).map_err(refused)
     })?;

@@ -11,10 +11,12 @@ use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, M
 use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
 use kestrel::dense::persist::BoxPersistence;
 use kestrel::dense::regions::{BoxRules, MotionBox};
+use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
 use kestrel::dense::DenseError;
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
+use kestrel::Point;
 
 use crate::Frame;
 
@@ -59,10 +61,14 @@ pub struct DenseRunner {
     next_storage: Vec<u8>,
     scratch: Vec<i16>,
     nodes: Vec<GridNode>,
+    /// The smoothing's gate, px, and its rows; `None` leaves the measured flows alone.
+    smooth_gate: Option<f32>,
+    smooth_rows: Vec<Point>,
 }
 
 impl DenseRunner {
-    /// A runner for `width` x `height` frames.
+    /// A runner for `width` x `height` frames that smooths the measured nodes with
+    /// [`kestrel::dense::smooth::DEFAULT_GATE`].
     pub fn new(params: DenseParams, width: usize, height: usize) -> Result<Self, RunError> {
         let dense = DenseFlow::new(params)?;
         let layout = dense.layout(width, height)?;
@@ -74,17 +80,32 @@ impl DenseRunner {
             next_storage: vec![0; storage],
             scratch: vec![0; scratch_len(params.lk.window)],
             nodes: vec![GridNode::EMPTY; layout.len()],
+            smooth_gate: Some(kestrel::dense::smooth::DEFAULT_GATE),
+            smooth_rows: vec![Point::default(); smooth_scratch_len(width, params.cell)],
         })
     }
 
-    /// The core: builds both pyramids and computes the grid flow from `prev` to `next`.
+    /// The same runner smoothing with `gate` px, or not at all with `None`.
+    pub fn with_smoothing(self, gate: Option<f32>) -> Self {
+        Self {
+            smooth_gate: gate,
+            ..self
+        }
+    }
+
+    /// The core: builds both pyramids, computes the grid flow from `prev` to `next` and
+    /// smooths it.
     pub fn compute(&mut self, prev: &Frame, next: &Frame) -> Result<DenseSummary, RunError> {
         let levels = self.dense.params().lk.max_level;
         let prev = Pyramid::build(view(prev)?, levels, &mut self.prev_storage)?;
         let next = Pyramid::build(view(next)?, levels, &mut self.next_storage)?;
-        Ok(self
+        let summary = self
             .dense
-            .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?)
+            .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
+        if let Some(gate) = self.smooth_gate {
+            smooth_tracked(&self.layout, &mut self.nodes, gate, &mut self.smooth_rows)?;
+        }
+        Ok(summary)
     }
 
     /// The grid.
@@ -126,7 +147,7 @@ pub const PERSIST_PAIRS: u8 = 2;
 impl Default for MotionSettings {
     fn default() -> Self {
         Self {
-            dense: DenseParams::default(),
+            dense: DenseParams::for_motion(),
             fit: FitParams::default(),
             motion: MotionParams {
                 // The outline checks every region at pixel level: even a node alone may be a

@@ -1,0 +1,363 @@
+//! Measured nodes averaged with the neighbours that move alike.
+//!
+//! LK measures each node from its own window alone: 81 pixels for the default 9 x 9, so sensor
+//! noise of 1.5 grey levels moves a node by about a tenth of a pixel. Neighbouring nodes on the
+//! same surface see independent pixels of the same smooth motion, so a fit over the 3 x 3
+//! neighbourhood averages up to nine windows' noise. The fit is affine (flow = a + b·col +
+//! c·row, per component) so that rotation and zoom, which make the flow vary by a few tenths of a
+//! pixel from node to node, do not bias it; its value at the node is the smoothed flow. Fewer
+//! than [`MIN_AFFINE`] members, or members on one line, take their mean instead.
+//!
+//! Only measured ([`NodeStatus::Tracked`]) nodes take part, and only neighbours whose flow is
+//! within the gate of the node's own in both components: a neighbour beyond it sees another
+//! surface (an object's edge, a mismeasured window), so an object moving more than the gate
+//! against its background keeps its own flow, even on a single node.
+//!
+//! The smoothing runs in place, row by row; `rows` keeps the measured flows of the row above
+//! and of the current one while they are replaced.
+
+use super::grid::{grid_side, GridLayout, GridNode, NodeStatus};
+use super::DenseError;
+use crate::q16::{Point, Q16};
+
+/// The `rows` [`smooth_tracked`] needs for a `width` px frame and `cell` px cells: two rows of
+/// nodes.
+///
+/// ```
+/// use kestrel::dense::smooth::smooth_scratch_len;
+/// assert_eq!(smooth_scratch_len(160, 8), 40);
+/// ```
+pub const fn smooth_scratch_len(width: usize, cell: usize) -> usize {
+    grid_side(width, cell).saturating_mul(2)
+}
+
+/// The gate host-sim uses, px: about five times a node's measurement noise with sensor noise of
+/// 1.5 grey levels, and half the motion at which the motion mask starts to look.
+pub const DEFAULT_GATE: f32 = 0.5;
+
+/// Members (the node included) an affine fit needs; with fewer the node takes their mean.
+/// Three would fit the plane exactly through noisy points, extrapolating their noise.
+pub const MIN_AFFINE: usize = 4;
+
+/// Replaces the flow of every measured node among the first [`GridLayout::len`] `nodes` by the
+/// affine fit of its 3 x 3 neighbourhood's measured flows within `gate` px of its own (module
+/// documentation), and returns how many nodes had a neighbour within the gate. Statuses and
+/// every other node are left alone. `rows` holds at least [`smooth_scratch_len`] points.
+///
+/// ```
+/// use kestrel::dense::grid::{GridLayout, GridNode};
+/// use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
+/// use kestrel::Point;
+///
+/// // A 3 x 3 grid moving 2 px right, the centre measured 0.3 px off, a corner on an object.
+/// let layout = GridLayout::new(24, 24, 8).unwrap();
+/// let mut nodes = [GridNode::tracked(Point::from_f32(2.0, 0.0)); 9];
+/// nodes[4] = GridNode::tracked(Point::from_f32(2.3, 0.0));
+/// nodes[0] = GridNode::tracked(Point::from_f32(5.0, 1.0));
+/// let mut rows = [Point::default(); smooth_scratch_len(24, 8)];
+/// assert_eq!(smooth_tracked(&layout, &mut nodes, 0.5, &mut rows), Ok(8));
+/// let (dx, dy) = nodes[4].flow.to_f32();
+/// assert!((dx - 2.0).abs() < 0.05 && dy == 0.0, "{dx}");
+/// // The object's node has no neighbour within the gate: it keeps its flow.
+/// assert_eq!(nodes[0].flow.to_f32(), (5.0, 1.0));
+/// ```
+pub fn smooth_tracked(
+    layout: &GridLayout,
+    nodes: &mut [GridNode],
+    gate: f32,
+    rows: &mut [Point],
+) -> Result<usize, DenseError> {
+    let gate = match Q16::checked_from_num(gate) {
+        Some(g) if gate >= 0.0 => g.to_bits(),
+        _ => return Err(DenseError::BadThreshold),
+    };
+    let cols = layout.cols();
+    let nodes = nodes
+        .get_mut(..layout.len())
+        .ok_or(DenseError::NodesTooShort)?;
+    let rows = rows
+        .get_mut(..smooth_scratch_len(layout.width(), layout.cell()))
+        .ok_or(DenseError::SmoothScratchTooShort)?;
+    let (mut above, mut current) = rows.split_at_mut(cols);
+    let mut smoothed = 0usize;
+    for row in 0..layout.rows() {
+        let start = row.saturating_mul(cols);
+        let measured = nodes.get(start..start.saturating_add(cols)).unwrap_or(&[]);
+        for (kept, node) in current.iter_mut().zip(measured) {
+            *kept = node.flow;
+        }
+        let neighbourhood = Neighbourhood {
+            layout,
+            above,
+            current,
+            row,
+            gate,
+        };
+        for col in 0..cols {
+            let index = start.saturating_add(col);
+            let Some(fit) = neighbourhood.fit(nodes, col) else {
+                continue;
+            };
+            if let Some(node) = nodes.get_mut(index) {
+                node.flow = fit;
+                smoothed = smoothed.saturating_add(1);
+            }
+        }
+        core::mem::swap(&mut above, &mut current);
+    }
+    Ok(smoothed)
+}
+
+/// The measured flows around one row of nodes while it is smoothed: the row above and this one
+/// from `rows`, the row below still in the nodes.
+struct Neighbourhood<'a> {
+    layout: &'a GridLayout,
+    above: &'a [Point],
+    current: &'a [Point],
+    row: usize,
+    gate: i32,
+}
+
+impl Neighbourhood<'_> {
+    /// The measured flow of the node `offset` (columns, rows) from (`col`, this row), if it
+    /// was tracked.
+    fn measured(&self, nodes: &[GridNode], col: usize, (dc, dr): (isize, isize)) -> Option<Point> {
+        let (c, r) = (
+            col.checked_add_signed(dc)?,
+            self.row.checked_add_signed(dr)?,
+        );
+        let node = nodes.get(self.layout.index(c, r)?)?;
+        if node.status != NodeStatus::Tracked {
+            return None;
+        }
+        match dr {
+            -1 => self.above.get(c).copied(),
+            0 => self.current.get(c).copied(),
+            _ => Some(node.flow),
+        }
+    }
+
+    /// The smoothed flow of the node at `col` of this row; `None` when it is not measured or
+    /// no neighbour is within the gate.
+    fn fit(&self, nodes: &[GridNode], col: usize) -> Option<Point> {
+        let centre = self.measured(nodes, col, (0, 0))?;
+        let mut sums = FitSums::default();
+        for dr in -1..=1 {
+            for dc in -1..=1 {
+                let Some(flow) = self.measured(nodes, col, (dc, dr)) else {
+                    continue;
+                };
+                let x = i64::from(flow.x.to_bits()) - i64::from(centre.x.to_bits());
+                let y = i64::from(flow.y.to_bits()) - i64::from(centre.y.to_bits());
+                let gate = i64::from(self.gate);
+                if x.abs() <= gate && y.abs() <= gate {
+                    sums.add(dc as i64, dr as i64, (x, y));
+                }
+            }
+        }
+        if sums.n < 2 {
+            return None;
+        }
+        let (x, y) = sums.intercept();
+        let shift = |v: Q16, d: i64| {
+            let bits = i64::from(v.to_bits()).saturating_add(d);
+            Q16::from_bits(i32::try_from(bits).unwrap_or(v.to_bits()))
+        };
+        Some(Point::new(shift(centre.x, x), shift(centre.y, y)))
+    }
+}
+
+/// Least-squares sums of an affine fit over offsets `(u, v)` in -1..=1 with values relative to
+/// the node's own flow, Q16 bits. Nine members of at most a gate of 2^31 each: no overflow in
+/// `i64`.
+#[derive(Default)]
+struct FitSums {
+    n: i64,
+    u: i64,
+    v: i64,
+    uu: i64,
+    vv: i64,
+    uv: i64,
+    /// Sums of the values, and of the values times `u` and times `v`, for x and for y.
+    x: [i64; 3],
+    y: [i64; 3],
+}
+
+impl FitSums {
+    fn add(&mut self, u: i64, v: i64, (x, y): (i64, i64)) {
+        self.n += 1;
+        self.u += u;
+        self.v += v;
+        self.uu += u * u;
+        self.vv += v * v;
+        self.uv += u * v;
+        for (sums, value) in [(&mut self.x, x), (&mut self.y, y)] {
+            sums[0] += value;
+            sums[1] += u * value;
+            sums[2] += v * value;
+        }
+    }
+
+    /// The fitted value at offset (0, 0), x and y: the first row of the normal matrix's
+    /// adjugate over its determinant, or the mean when the fit is underdetermined.
+    fn intercept(&self) -> (i64, i64) {
+        let adjugate = [
+            self.uu * self.vv - self.uv * self.uv,
+            self.uv * self.v - self.u * self.vv,
+            self.u * self.uv - self.uu * self.v,
+        ];
+        let det = self.n * adjugate[0] + self.u * adjugate[1] + self.v * adjugate[2];
+        let solve = |sums: &[i64; 3]| {
+            if self.n >= MIN_AFFINE as i64 && det > 0 {
+                let num: i64 = adjugate.iter().zip(sums).map(|(a, s)| a * s).sum();
+                div_round(num, det)
+            } else {
+                div_round(sums[0], self.n)
+            }
+        };
+        (solve(&self.x), solve(&self.y))
+    }
+}
+
+/// `num / den` rounded to the nearest, halves away from zero; `den` > 0.
+fn div_round(num: i64, den: i64) -> i64 {
+    let half = den / 2;
+    if num >= 0 {
+        (num + half) / den
+    } else {
+        -((-num + half) / den)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(dx: f32, dy: f32) -> GridNode {
+        GridNode::tracked(Point::from_f32(dx, dy))
+    }
+
+    fn smooth(layout: &GridLayout, nodes: &mut [GridNode], gate: f32) -> usize {
+        let mut rows = [Point::default(); 40];
+        smooth_tracked(layout, nodes, gate, &mut rows).unwrap()
+    }
+
+    #[test]
+    fn an_affine_field_is_kept_exactly() {
+        // Zoom and rotation: flow = (0.5 + 0.02·x - 0.01·y, -0.25 + 0.01·x + 0.02·y) at the
+        // node centres, with holes that make the neighbourhoods lopsided (each node keeps at least
+        // MIN_AFFINE members off one line: the corners four, the edges five or six).
+        let layout = GridLayout::new(64, 48, 8).unwrap();
+        let field = |i: usize| {
+            let (c, r) = layout.centre(i % 8, i / 8);
+            let (x, y) = (c as f32, r as f32);
+            node(0.5 + 0.02 * x - 0.01 * y, -0.25 + 0.01 * x + 0.02 * y)
+        };
+        let mut nodes: [GridNode; 48] = core::array::from_fn(field);
+        for hole in [10, 21, 36] {
+            nodes[hole] = GridNode::invalid(NodeStatus::LowTexture);
+        }
+        let before = nodes;
+        smooth(&layout, &mut nodes, 0.5);
+        for (a, b) in nodes.iter().zip(&before) {
+            assert_eq!(a.status, b.status);
+            let (dx, dy) = (
+                (a.flow.x - b.flow.x).to_num::<f32>(),
+                (a.flow.y - b.flow.y).to_num::<f32>(),
+            );
+            assert!(dx.abs() < 1e-4 && dy.abs() < 1e-4, "{dx} {dy}");
+        }
+    }
+
+    #[test]
+    fn noise_shrinks_on_a_smooth_field() {
+        // A uniform 1.5 px flow with seeded noise of about 0.1 px per node.
+        let layout = GridLayout::new(160, 120, 8).unwrap();
+        let mut state = 12345u32;
+        let mut noise = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.35
+        };
+        let mut nodes: [GridNode; 300] = core::array::from_fn(|_| node(1.5 + noise(), noise()));
+        let error = |nodes: &[GridNode]| {
+            let sum: f32 = nodes
+                .iter()
+                .map(|n| {
+                    let (dx, dy) = n.flow.to_f32();
+                    (dx - 1.5).powi(2) + dy.powi(2)
+                })
+                .sum();
+            (sum / nodes.len() as f32).sqrt()
+        };
+        let before = error(&nodes);
+        assert_eq!(smooth(&layout, &mut nodes, 0.5), layout.len());
+        let after = error(&nodes);
+        assert!(after < 0.5 * before, "{before} -> {after}");
+    }
+
+    #[test]
+    fn an_object_beyond_the_gate_keeps_its_flow() {
+        // One node moving 1 px against a still background; the background around it stays
+        // at zero too.
+        let layout = GridLayout::new(40, 40, 8).unwrap();
+        let mut nodes = [node(0.0, 0.0); 25];
+        nodes[12] = node(1.0, 0.0);
+        smooth(&layout, &mut nodes, 0.5);
+        assert_eq!(nodes[12].flow.to_f32(), (1.0, 0.0));
+        assert!(nodes
+            .iter()
+            .enumerate()
+            .all(|(i, n)| i == 12 || n.flow.to_f32() == (0.0, 0.0)));
+    }
+
+    #[test]
+    fn unmeasured_nodes_neither_change_nor_count() {
+        let layout = GridLayout::new(24, 8, 8).unwrap();
+        let mut nodes = [
+            node(1.0, 0.0),
+            GridNode {
+                flow: Point::from_f32(9.0, 9.0),
+                status: NodeStatus::Filled,
+                fill_pass: 1,
+            },
+            node(1.2, 0.0),
+        ];
+        assert_eq!(smooth(&layout, &mut nodes, 0.5), 0);
+        assert_eq!(nodes[1].flow.to_f32(), (9.0, 9.0));
+        assert_eq!(nodes[2], node(1.2, 0.0));
+    }
+
+    #[test]
+    fn bad_gates_and_short_buffers_are_refused() {
+        let layout = GridLayout::new(24, 24, 8).unwrap();
+        let mut nodes = [node(0.0, 0.0); 9];
+        let mut rows = [Point::default(); 6];
+        for gate in [f32::NAN, -0.1, f32::INFINITY, 1e9] {
+            assert_eq!(
+                smooth_tracked(&layout, &mut nodes, gate, &mut rows),
+                Err(DenseError::BadThreshold)
+            );
+        }
+        assert_eq!(
+            smooth_tracked(&layout, &mut nodes[..8], 0.5, &mut rows),
+            Err(DenseError::NodesTooShort)
+        );
+        assert_eq!(
+            smooth_tracked(&layout, &mut nodes, 0.5, &mut rows[..5]),
+            Err(DenseError::SmoothScratchTooShort)
+        );
+    }
+
+    #[test]
+    fn rounding_is_symmetric() {
+        assert_eq!(
+            (
+                div_round(5, 2),
+                div_round(-5, 2),
+                div_round(4, 3),
+                div_round(-4, 3)
+            ),
+            (3, -3, 1, -1)
+        );
+    }
+}

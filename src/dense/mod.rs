@@ -52,7 +52,9 @@
 //! ```
 //!
 //! The outline ([`outline::Outliner`]) needs [`outline::outline_scratch_len`] words of `u16`
-//! besides: 11 778 B for regions up to 48 px and motions up to 8 px.
+//! besides: 11 778 B for regions up to 48 px and motions up to 8 px. The smoothing
+//! ([`smooth::smooth_tracked`]) needs [`smooth::smooth_scratch_len`] points: two rows of
+//! nodes, 320 B at 160 x 120 and 640 B at 320 x 240.
 //!
 //! On the stack, this module's largest buffer is the 64 B of a fill median (LK's use comes on
 //! top).

@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
+use kestrel::dense::grid::DenseParams;
 use kestrel::dense::regions::MotionBox;
 
 use super::Scenario;
@@ -30,7 +31,8 @@ pub fn run(scenario: &Scenario, dir: &Path) -> Result<Vec<String>, CommandError>
     let settings = MotionSettings::default();
     let failed = |e: RunError| CommandError::Processing(format!("dense mode: {e:?}"));
 
-    let mut dense = DenseRunner::new(settings.dense, width, height).map_err(failed)?;
+    // The picture shows the grid mode's flow, as `host-sim dense` computes it.
+    let mut dense = DenseRunner::new(DenseParams::default(), width, height).map_err(failed)?;
     let start = Instant::now();
     let grid = dense
         .compute(&frames[FLOW_PAIR - 1], &frames[FLOW_PAIR])

@@ -159,11 +159,19 @@ impl Neighbourhood<'_> {
             return None;
         }
         let (x, y) = sums.intercept();
-        let shift = |v: Q16, d: i64| {
+        // A measured node lands inside the frame; the fit may not carry it out.
+        let (px, py) = self.layout.centre(col, self.row);
+        let shift = |v: Q16, d: i64, centre: usize, size: usize| {
+            let centre = i64::try_from(centre).unwrap_or(0) << 16;
+            let last = i64::try_from(size.saturating_sub(1)).unwrap_or(0) << 16;
             let bits = i64::from(v.to_bits()).saturating_add(d);
+            let bits = bits.clamp(-centre, last - centre);
             Q16::from_bits(i32::try_from(bits).unwrap_or(v.to_bits()))
         };
-        Some(Point::new(shift(centre.x, x), shift(centre.y, y)))
+        Some(Point::new(
+            shift(centre.x, x, px, self.layout.width()),
+            shift(centre.y, y, py, self.layout.height()),
+        ))
     }
 }
 
@@ -346,6 +354,19 @@ mod tests {
             smooth_tracked(&layout, &mut nodes, 0.5, &mut rows[..5]),
             Err(DenseError::SmoothScratchTooShort)
         );
+    }
+
+    #[test]
+    fn smoothed_nodes_stay_inside_the_frame() {
+        // One row of three nodes: the first (centre x = 4) moved 4 px left onto the frame's
+        // first pixel, its neighbour 4.4 px. Two members take their mean, -4.2 px, which would
+        // carry the first node off the frame: it stops at the edge.
+        let layout = GridLayout::new(24, 8, 8).unwrap();
+        let mut nodes = [node(-4.0, 0.0), node(-4.4, 0.0), node(-4.4, 0.0)];
+        smooth(&layout, &mut nodes, 0.5);
+        assert_eq!(nodes[0].flow.to_f32(), (-4.0, 0.0));
+        let (dx, _) = nodes[1].flow.to_f32();
+        assert!(dx < -4.2 && dx > -4.4, "{dx}");
     }
 
     #[test]

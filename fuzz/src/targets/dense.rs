@@ -13,6 +13,7 @@ use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridLayout, GridNod
 use kestrel::dense::mask::{mask_words, Structure};
 use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
 use kestrel::dense::regions::{BoxRules, MotionBox};
+use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
 use kestrel::dense::DenseError;
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
@@ -36,6 +37,9 @@ struct Input {
     scratch_delta: i8,
     fit: (f32, f32, u8),
     motion: MotionInput,
+    /// The smoothing's gate and how far its rows are from the length it needs; last, so the
+    /// corpus from before it decodes the same.
+    smooth: Option<(f32, i8)>,
 }
 
 #[derive(Arbitrary, Debug)]
@@ -145,8 +149,42 @@ pub fn run(data: &[u8]) {
     for (i, node) in grid.iter().enumerate() {
         check_node(&layout, i, node, params.fill_passes);
     }
+    if let Some((gate, rows_delta)) = input.smooth {
+        check_smoothing(
+            &layout,
+            &mut nodes[..len],
+            gate,
+            rows_delta,
+            params.fill_passes,
+        );
+    }
+    let grid = &nodes[..len];
     let motion = check_dominant(&layout, grid, input.fit);
     check_motion(&layout, grid, &motion, &input.motion);
+}
+
+/// The smoothing keeps every status, moves only measured nodes and keeps them inside the
+/// frame, or refuses a bad gate or short rows.
+fn check_smoothing(layout: &GridLayout, nodes: &mut [GridNode], gate: f32, delta: i8, passes: u8) {
+    let needed = smooth_scratch_len(layout.width(), layout.cell());
+    let mut rows = vec![Point::default(); needed.saturating_add_signed(delta.into())];
+    let before = nodes.to_vec();
+    match smooth_tracked(layout, nodes, gate, &mut rows) {
+        Ok(smoothed) => {
+            let tracked = before.iter().filter(|n| n.is_valid()).count();
+            assert!(smoothed <= tracked, "{smoothed} of {tracked}");
+            for (i, (after, before)) in nodes.iter().zip(&before).enumerate() {
+                assert_eq!(after.status, before.status);
+                if !before.is_valid() {
+                    assert_eq!(after, before);
+                }
+                check_node(layout, i, after, passes);
+            }
+        }
+        Err(DenseError::BadThreshold) => assert!(!(0.0..=32767.0).contains(&gate), "{gate}"),
+        Err(DenseError::SmoothScratchTooShort) => assert!(rows.len() < needed),
+        Err(other) => panic!("unexpected refusal {other:?}"),
+    }
 }
 
 /// A refusal names a real problem.

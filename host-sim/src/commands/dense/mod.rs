@@ -43,7 +43,7 @@ their neighbours, then each measured node averaged with the neighbours that move
     after_help = "grid.csv columns:
   x,y      the node centre in A: (cell/2 + i*cell, cell/2 + j*cell)
   dx,dy    its flow from A to B, px (0 when unknown; filled from the neighbours when filled;
-           smoothed when measured, unless --smooth-gate 0)
+           smoothed when measured, unless --smooth-gate 0 or --smooth-passes 0)
   ok       1 when measured; 0 otherwise
   status   tracked, low_texture, residual (the window does not match), lost (not converged
            or left the frame) or filled
@@ -79,6 +79,10 @@ pub struct DenseOptions {
     /// own (a local affine fit); 0 leaves the measurements alone
     #[arg(long, value_name = "PX", default_value_t = kestrel::dense::smooth::DEFAULT_GATE, value_parser = smooth_gate)]
     pub smooth_gate: f32,
+    /// passes of that fit, each over the nodes the last one smoothed and reaching a node
+    /// further, 0 to 8; 0 leaves the measurements alone
+    #[arg(long, value_name = "N", default_value_t = kestrel::dense::smooth::DEFAULT_PASSES, value_parser = smooth_passes)]
+    pub smooth_passes: u8,
     /// run the core (build both pyramids, compute the grid, smooth it) N times, N >= 1
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = values::repeat)]
     pub repeat: usize,
@@ -128,6 +132,11 @@ fn smooth_gate(text: &str) -> Result<f32, String> {
     values::number(text, range, "must be between 0 and 8 px").map(|v| v as f32)
 }
 
+/// Smoothing passes: 0 to 8.
+fn smooth_passes(text: &str) -> Result<u8, String> {
+    values::whole(text, |n| (0..=8).contains(&n), "must be between 0 and 8").map(|n| n as u8)
+}
+
 /// The outputs, created before any work so an unwritable path fails fast.
 struct Outputs {
     csv: AtomicFile,
@@ -166,10 +175,13 @@ pub fn run(options: &DenseOptions) -> Result<(), CommandError> {
     let size = (prev.width, prev.height);
     let params = options.grid.params(DenseParams::default());
     let refused = |e| refused(e, &params, &options.prev, size);
-    let gate = (options.smooth_gate > 0.0).then_some(options.smooth_gate);
+    let smoothing = (options.smooth_gate > 0.0 && options.smooth_passes > 0).then_some(Smoothing {
+        gate: options.smooth_gate,
+        passes: options.smooth_passes,
+    });
     let mut runner = DenseRunner::new(params, size.0, size.1)
         .map_err(refused)?
-        .with_smoothing(gate);
+        .with_smoothing(smoothing);
     let ((), seconds) = time_core(options.repeat, || {
         runner.compute(&prev, &next).map(|_| ()).map_err(refused)
     })?;

@@ -11,7 +11,7 @@ use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, M
 use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
 use kestrel::dense::persist::BoxPersistence;
 use kestrel::dense::regions::{BoxRules, MotionBox};
-use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
+use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked, DEFAULT_GATE, DEFAULT_PASSES};
 use kestrel::dense::DenseError;
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
@@ -61,14 +61,15 @@ pub struct DenseRunner {
     next_storage: Vec<u8>,
     scratch: Vec<i16>,
     nodes: Vec<GridNode>,
-    /// The smoothing's gate, px, and its rows; `None` leaves the measured flows alone.
-    smooth_gate: Option<f32>,
+    /// The smoothing's gate, px, and passes, and its rows; `None` leaves the measured flows
+    /// alone.
+    smoothing: Option<Smoothing>,
     smooth_rows: Vec<Point>,
 }
 
 impl DenseRunner {
     /// A runner for `width` x `height` frames that smooths the measured nodes with
-    /// [`kestrel::dense::smooth::DEFAULT_GATE`].
+    /// [`Smoothing::default`].
     pub fn new(params: DenseParams, width: usize, height: usize) -> Result<Self, RunError> {
         let dense = DenseFlow::new(params)?;
         let layout = dense.layout(width, height)?;
@@ -80,17 +81,14 @@ impl DenseRunner {
             next_storage: vec![0; storage],
             scratch: vec![0; scratch_len(params.lk.window)],
             nodes: vec![GridNode::EMPTY; layout.len()],
-            smooth_gate: Some(kestrel::dense::smooth::DEFAULT_GATE),
+            smoothing: Some(Smoothing::default()),
             smooth_rows: vec![Point::default(); smooth_scratch_len(width, params.cell)],
         })
     }
 
-    /// The same runner smoothing with `gate` px, or not at all with `None`.
-    pub fn with_smoothing(self, gate: Option<f32>) -> Self {
-        Self {
-            smooth_gate: gate,
-            ..self
-        }
+    /// The same runner smoothing as `smoothing` says, or not at all with `None`.
+    pub fn with_smoothing(self, smoothing: Option<Smoothing>) -> Self {
+        Self { smoothing, ..self }
     }
 
     /// The core: builds both pyramids, computes the grid flow from `prev` to `next` and
@@ -102,8 +100,10 @@ impl DenseRunner {
         let summary = self
             .dense
             .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
-        if let Some(gate) = self.smooth_gate {
-            smooth_tracked(&self.layout, &mut self.nodes, gate, &mut self.smooth_rows)?;
+        if let Some(Smoothing { gate, passes }) = self.smoothing {
+            for _ in 0..passes {
+                smooth_tracked(&self.layout, &mut self.nodes, gate, &mut self.smooth_rows)?;
+            }
         }
         Ok(summary)
     }
@@ -116,6 +116,25 @@ impl DenseRunner {
     /// The nodes of the last [`DenseRunner::compute`], row by row.
     pub fn nodes(&self) -> &[GridNode] {
         &self.nodes
+    }
+}
+
+/// How [`DenseRunner`] smooths the measured nodes ([`smooth_tracked`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Smoothing {
+    /// Neighbours further than this from a node's flow, px, are left out of its fit.
+    pub gate: f32,
+    /// Passes of the fit: each reaches one node further.
+    pub passes: u8,
+}
+
+impl Default for Smoothing {
+    /// [`DEFAULT_GATE`] and [`DEFAULT_PASSES`].
+    fn default() -> Self {
+        Self {
+            gate: DEFAULT_GATE,
+            passes: DEFAULT_PASSES,
+        }
     }
 }
 

@@ -130,6 +130,69 @@ fn dense_with_a_coarser_grid() {
 }
 
 #[test]
+fn smoothing_moves_measured_nodes_only_and_can_be_turned_off() {
+    let scratch = Scratch::new("smooth");
+    let read = |out: PathBuf| rows(&fs::read_to_string(out).unwrap());
+    let (output, out) = dense(&scratch, &[]);
+    assert!(output.status.success(), "{output:?}");
+    let smoothed = read(out);
+    let (output, out) = dense(&scratch, &[&"--smooth-passes", &"0"]);
+    assert!(output.status.success(), "{output:?}");
+    let measured = read(out.clone());
+    let (output, _) = dense(&scratch, &[&"--smooth-gate", &"0"]);
+    assert!(output.status.success(), "{output:?}");
+    assert_eq!(read(out), measured, "a zero gate is no smoothing too");
+    // Same nodes, same statuses; most measured nodes averaged with their neighbours.
+    assert_eq!(smoothed.len(), measured.len());
+    let error = |row: &[String]| {
+        let (dx, dy): (f64, f64) = (row[2].parse().unwrap(), row[3].parse().unwrap());
+        (dx - 2.0).hypot(dy)
+    };
+    let (mut changed, mut before, mut after) = (0, Vec::new(), Vec::new());
+    for (s, m) in smoothed.iter().zip(&measured) {
+        assert_eq!((&s[..2], &s[4..]), (&m[..2], &m[4..]));
+        if s[5] == "tracked" {
+            changed += usize::from(s[2..4] != m[2..4]);
+            before.push(error(m));
+            after.push(error(s));
+        } else {
+            assert_eq!(s[2..4], m[2..4]);
+        }
+    }
+    assert!(changed > before.len() / 2, "{changed} of {}", before.len());
+    // This pair has no sensor noise, so there is little for the smoothing to average away
+    // (tests/dense_grid.rs measures what it does under noise); it must not add error.
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    eprintln!(
+        "mean error {:.4} px measured, {:.4} smoothed",
+        mean(&before),
+        mean(&after)
+    );
+    assert!(mean(&after) < mean(&before) + 0.01);
+    for (flag, value, expected) in [
+        (
+            "--smooth-gate",
+            "-1",
+            "--smooth-gate: must be between 0 and 8 px (got -1)",
+        ),
+        (
+            "--smooth-gate",
+            "nan",
+            "--smooth-gate: must be between 0 and 8 px (got NaN)",
+        ),
+        (
+            "--smooth-passes",
+            "9",
+            "--smooth-passes: must be between 0 and 8 (got 9)",
+        ),
+    ] {
+        let (output, _) = dense(&scratch, &[&flag, &value]);
+        let message = assert_one_line_error(&output, 2, flag);
+        assert_eq!(message, format!("host-sim: {expected}\n"));
+    }
+}
+
+#[test]
 fn dense_bad_input_names_the_culprit_and_writes_nothing() {
     let scratch = Scratch::new("bad");
     let flo = scratch.path("f.flo");

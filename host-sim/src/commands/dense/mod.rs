@@ -75,8 +75,8 @@ pub struct DenseOptions {
     pub png: Option<PathBuf>,
     #[command(flatten)]
     pub grid: GridFlags,
-    /// average each measured node with the measured neighbours whose flow is within PX of its
-    /// own (a local affine fit); 0 leaves the measurements alone
+    /// average each measured node with the measured neighbours whose flow is within PX (0 to
+    /// 8) of its own (a local affine fit); 0 leaves the measurements alone
     #[arg(long, value_name = "PX", default_value_t = kestrel::dense::smooth::DEFAULT_GATE, value_parser = smooth_gate)]
     pub smooth_gate: f32,
     /// passes of that fit, each over the nodes the last one smoothed and reaching a node

@@ -109,9 +109,15 @@ pub(crate) fn agreement(
     )?;
     let top = place(centre.1, win, dy, (win, win + 1), prev.height())?;
     let (ox, oy) = (left.checked_add_signed(dx)?, top.checked_add_signed(dy)?);
-    // Every row of either window, exactly as long as its words need.
-    let prev_row = |r: usize| prev.row(top + r).get(left..left + 4 * words + 1);
-    let next_row = |r: usize| next.row(oy + r).get(ox..ox + 4 * words + 4);
+    // Every row of either window, exactly as long as its words need, from one bounds check of
+    // each window rather than one per row.
+    let (prev_len, next_len) = (4 * words + 1, 4 * words + 4);
+    let at = |v: usize| isize::try_from(v).ok();
+    let prev_block = prev.block(at(left)?, at(top)?, prev_len, win)?;
+    let next_block = next.block(at(ox)?, at(oy)?, next_len, win + 1)?;
+    let (prev_stride, next_stride) = (prev.stride(), next.stride());
+    let prev_row = |r: usize| prev_block.get(r * prev_stride..r * prev_stride + prev_len);
+    let next_row = |r: usize| next_block.get(r * next_stride..r * next_stride + next_len);
     // The bytes of each word inside the window, and inside its first `win - 1` columns.
     let masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win, k));
     let pair_masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win - 1, k));

@@ -119,15 +119,13 @@ pub(crate) fn agreement(
     let prev_row = |r: usize| prev_block.get(r * prev_stride..r * prev_stride + prev_len);
     let next_row = |r: usize| next_block.get(r * next_stride..r * next_stride + next_len);
     // The bytes of each word inside the window, and inside its first `win - 1` columns.
-    let masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win, k));
-    let pair_masks: [u32; MAX_WORDS] = core::array::from_fn(|k| mask(win - 1, k));
+    let (masks, pair_masks) = (MASKS.get(win)?, MASKS.get(win - 1)?);
     let mut sums = Sums::default();
     let mut stored = [(0u32, 0u32); MAX_WORDS * MAX_CHECKED_WINDOW];
     let mut above_prev = [0u32; MAX_WORDS];
     let mut above_next = row_words(next_row(0)?);
     for (r, out) in stored.chunks_exact_mut(MAX_WORDS).take(win).enumerate() {
-        let pixels = prev_row(r)?;
-        let (prev_words, shifted) = (row_words(pixels), row_words(pixels.get(1..)?));
+        let prev_words = row_words(prev_row(r)?);
         let below_next = row_words(next_row(r + 1)?);
         let mut here = vertical(above_next[0], below_next[0], fy);
         // All MAX_WORDS words, unrolled: those past the window's are masked to nothing.
@@ -139,16 +137,19 @@ pub(crate) fn agreement(
             // The first row has no row above: it counts nothing down.
             let up = if r == 0 { p } else { above_prev[k] };
             sums.add(n, p, up);
-            // Pixel i beside pixel i + 1, over the row's first `win - 1` pixels.
+            // Pixel i beside pixel i + 1, over the row's first `win - 1` pixels: the pixels
+            // one to the right are this word's last three and the next word's first. Where
+            // the pair mask keeps a byte, its right neighbour lies in a complete word.
             let pm = pair_masks[k];
-            sums.across = usada8(p & pm, shifted[k] & pm, sums.across);
+            let shifted = (prev_words[k] >> 8) | (prev_words[k + 1] << 24);
+            sums.across = usada8(p & pm, shifted & pm, sums.across);
             out[k] = (n, p);
             above_prev[k] = p;
         }
         above_next = below_next;
     }
     let pixels = u32::try_from(win * win).ok()?;
-    let mismatch = sums.zero_mean_sad(&stored, words, win, &masks)?;
+    let mismatch = sums.zero_mean_sad(&stored, words, win, masks)?;
     // `win * (win - 1)` pairs each way, scaled to the window's `win * win` pixels.
     let texture = sums.across.min(sums.down) * pixels / u32::try_from(win * (win - 1)).ok()?;
     Some(Agreement {
@@ -178,10 +179,30 @@ fn place(
 }
 
 /// The bytes of word `k` of a row that lie in its first `len` pixels.
-fn mask(len: usize, k: usize) -> u32 {
-    let valid = len.saturating_sub(4 * k).min(4) as u32;
-    u32::MAX.checked_shr(32 - 8 * valid).unwrap_or(0)
+const fn mask(len: usize, k: usize) -> u32 {
+    let valid = len.saturating_sub(4 * k);
+    let valid = if valid > 4 { 4 } else { valid as u32 };
+    match u32::MAX.checked_shr(32 - 8 * valid) {
+        Some(m) => m,
+        None => 0,
+    }
 }
+
+/// [`mask`] of every word, for every row length up to [`MAX_CHECKED_WINDOW`]: the window's
+/// length is checked once per node, the masks not computed again.
+const MASKS: [[u32; MAX_WORDS]; MAX_CHECKED_WINDOW + 1] = {
+    let mut masks = [[0; MAX_WORDS]; MAX_CHECKED_WINDOW + 1];
+    let mut len = 0;
+    while len <= MAX_CHECKED_WINDOW {
+        let mut k = 0;
+        while k < MAX_WORDS {
+            masks[len][k] = mask(len, k);
+            k += 1;
+        }
+        len += 1;
+    }
+    masks
+};
 
 /// The running sums of one window.
 #[derive(Default)]
@@ -361,6 +382,39 @@ mod tests {
             // Rounding apart, the bytes agree: at most one grey level at a quarter of them.
             assert!(a.mismatch * 4 <= a.pixels, "win {win}: {a:?}");
             assert!(a.texture > 2 * a.pixels, "win {win}: {a:?}");
+        }
+    }
+
+    #[test]
+    fn texture_is_the_smaller_sum_of_neighbour_differences() {
+        // Seeded noise, every checked window size: the word-wise sums equal the plain ones.
+        let mut state = 7u32;
+        let pixels: [u8; W * H] = core::array::from_fn(|_| {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+            (state >> 16) as u8
+        });
+        let view = ImageView::packed(&pixels, W, H).unwrap();
+        let centre = (24, 20);
+        for win in 2..=MAX_CHECKED_WINDOW {
+            let guess = Point::from_f32(24.0, 20.0);
+            let found = agreement(&view, &view, centre, guess, win).unwrap();
+            let (left, top) = (centre.0 - win / 2, centre.1 - win / 2);
+            let px = |x: usize, y: usize| i32::from(pixels[(top + y) * W + left + x]);
+            let (mut across, mut down) = (0, 0);
+            for y in 0..win {
+                for x in 0..win {
+                    if x + 1 < win {
+                        across += (px(x, y) - px(x + 1, y)).unsigned_abs();
+                    }
+                    if y + 1 < win {
+                        down += (px(x, y) - px(x, y + 1)).unsigned_abs();
+                    }
+                }
+            }
+            let pixels = (win * win) as u32;
+            let expected = across.min(down) * pixels / (win * (win - 1)) as u32;
+            assert_eq!(found.texture, expected, "win {win}");
+            assert_eq!((found.mismatch, found.pixels), (0, pixels), "win {win}");
         }
     }
 

@@ -98,20 +98,14 @@ pub(crate) fn agreement(
     };
     let (dx, fx) = shift(guess.x.to_bits(), centre.0)?;
     let (dy, fy) = shift(guess.y.to_bits(), centre.1)?;
-    // The previous window's columns, texture's extra byte included, and the next window's
-    // `words + 1` words; rows: `win` in the previous frame, `win + 1` in the next.
-    let left = place(
-        centre.0,
-        win,
-        dx,
-        (4 * words + 1, 4 * words + 4),
-        prev.width(),
-    )?;
+    // The previous window's `words` words and the next window's `words + 1`; rows: `win` in
+    // the previous frame, `win + 1` in the next.
+    let left = place(centre.0, win, dx, (4 * words, 4 * words + 4), prev.width())?;
     let top = place(centre.1, win, dy, (win, win + 1), prev.height())?;
     let (ox, oy) = (left.checked_add_signed(dx)?, top.checked_add_signed(dy)?);
     // Every row of either window, exactly as long as its words need, from one bounds check of
     // each window rather than one per row.
-    let (prev_len, next_len) = (4 * words + 1, 4 * words + 4);
+    let (prev_len, next_len) = (4 * words, 4 * words + 4);
     let at = |v: usize| isize::try_from(v).ok();
     let prev_block = prev.block(at(left)?, at(top)?, prev_len, win)?;
     let next_block = next.block(at(ox)?, at(oy)?, next_len, win + 1)?;

@@ -114,9 +114,6 @@ pub mod motion;
 pub mod outline;
 pub mod persist;
 pub mod regions;
-// Sums over at most nine neighbours of Q16 differences below 2^32, times offsets of at most 1,
-// and the 3 x 3 adjugate's entries of at most 81: below 2^46 in `i64` (see `FitSums`).
-#[cfg_attr(not(test), allow(clippy::arithmetic_side_effects))]
 pub mod smooth;
 
 use crate::lk::LkError;
@@ -143,7 +140,8 @@ pub enum DenseError {
     MotionScratchTooShort,
     /// The smoothing's rows are shorter than [`smooth::smooth_scratch_len`].
     SmoothScratchTooShort,
-    /// A threshold is negative, NaN or infinite.
+    /// A threshold is negative, NaN or infinite, or a smoothing gate is beyond a Q16 flow
+    /// (32,768 px).
     BadThreshold,
     /// The outline's side is outside [`outline::MIN_SIDE`] to [`outline::MAX_SIDE`], or its
     /// reach above [`outline::MAX_REACH`].
@@ -170,7 +168,9 @@ impl core::fmt::Display for DenseError {
             DenseError::SmoothScratchTooShort => {
                 f.write_str("smoothing rows are shorter than smooth_scratch_len")
             }
-            DenseError::BadThreshold => f.write_str("thresholds must be finite numbers >= 0"),
+            DenseError::BadThreshold => {
+                f.write_str("thresholds must be finite numbers >= 0 (smoothing gates below 32768 px)")
+            }
             DenseError::BadOutline => f.write_str("outline side must be 8 to 255 px and reach at most 128 px"),
             DenseError::Lk(e) => write!(f, "tracker parameters: {e}"),
         }

@@ -277,6 +277,15 @@ mod tests {
         GridNode::tracked(Point::from_f32(dx, dy))
     }
 
+    /// Seeded values spread uniformly over `width` px around 0.
+    fn uniform_noise(seed: u32, width: f32) -> impl FnMut() -> f32 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * width
+        }
+    }
+
     fn smooth(layout: &GridLayout, nodes: &mut [GridNode], gate: f32) -> usize {
         let mut rows = [Point::default(); 40];
         smooth_tracked(layout, nodes, gate, &mut rows).unwrap()
@@ -316,11 +325,7 @@ mod tests {
         // A noisy field with holes and a moving patch, smoothed in place, against each node
         // fitted from an untouched copy: bit for bit.
         let layout = GridLayout::new(56, 48, 8).unwrap();
-        let mut state = 99u32;
-        let mut noise = || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            ((state >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.6
-        };
+        let mut noise = uniform_noise(99, 0.6);
         let mut nodes: [GridNode; 42] = core::array::from_fn(|i| {
             let moving = [16, 17, 23].contains(&i);
             let base = if moving { 1.8 } else { 1.0 };
@@ -361,11 +366,7 @@ mod tests {
     fn noise_shrinks_on_a_smooth_field() {
         // A uniform 1.5 px flow with seeded noise of about 0.1 px per node.
         let layout = GridLayout::new(160, 120, 8).unwrap();
-        let mut state = 12345u32;
-        let mut noise = || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            ((state >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.35
-        };
+        let mut noise = uniform_noise(12345, 0.35);
         let mut nodes: [GridNode; 300] = core::array::from_fn(|_| node(1.5 + noise(), noise()));
         let error = |nodes: &[GridNode]| {
             let sum: f32 = nodes

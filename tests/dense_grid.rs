@@ -285,3 +285,54 @@ fn searches_from_a_prediction_keep_the_grid_accurate_where_it_is_wrong() {
     assert!(median(&predicted) <= median(&whole) + 0.01);
     assert!(gross(&predicted) <= gross(&whole) + 0.01);
 }
+
+#[test]
+fn flat_windows_are_left_unsearched_only_when_asked() {
+    // The same pairs searched from the exact warp, with windows too flat for the camera check
+    // searched by LK and not: they differ only at nodes the second run calls low-texture.
+    let (width, height) = (160, 120);
+    let searched = DenseParams {
+        fill_passes: 0,
+        ..DenseParams::for_motion()
+    };
+    let skipped = DenseParams {
+        search_flat: false,
+        ..searched
+    };
+    let layout = GridLayout::new(width, height, searched.cell).unwrap();
+    let mut scratch = vec![0i16; scratch_len(searched.lk.window)];
+    let (mut differing, mut lost_measured, mut nodes_seen) = (0, 0, 0);
+    for (_, _, warp, first, second) in warped_pairs(width, height) {
+        let len = pyramid_storage_len(width, height, 3);
+        let (mut sa, mut sb) = (vec![0u8; len], vec![0u8; len]);
+        let prev = Pyramid::build(first.view().unwrap(), 3, &mut sa).unwrap();
+        let next = Pyramid::build(second.view().unwrap(), 3, &mut sb).unwrap();
+        let predict = |p: kestrel::Point| {
+            let (x, y) = p.to_f32();
+            let (tx, ty) = true_position(&warp, x, y);
+            kestrel::Point::from_f32(tx, ty)
+        };
+        let run = |params: DenseParams, scratch: &mut [i16]| {
+            let mut nodes = vec![GridNode::default(); layout.len()];
+            let dense = DenseFlow::new(params).unwrap();
+            dense
+                .compute_predicted(&prev, &next, &mut nodes, scratch, &predict)
+                .unwrap();
+            nodes
+        };
+        let (all, some) = (run(searched, &mut scratch), run(skipped, &mut scratch));
+        for (a, s) in all.iter().zip(&some) {
+            nodes_seen += 1;
+            if a != s {
+                differing += 1;
+                assert_eq!(s.status, NodeStatus::LowTexture, "{a:?} -> {s:?}");
+                lost_measured += usize::from(a.is_valid());
+            }
+        }
+    }
+    eprintln!(
+        "{differing} of {nodes_seen} nodes left unsearched, {lost_measured} of them measured by LK"
+    );
+    assert!(differing > 0 && lost_measured > 0);
+    assert!(differing < nodes_seen / 4);
+}

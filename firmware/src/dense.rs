@@ -71,6 +71,9 @@ impl Dense {
                 max_level: MAX_LEVEL,
                 ..defaults.lk
             },
+            // Windows too flat for the camera check are not searched: a quarter of the grid's
+            // instructions here, the boxes unchanged.
+            search_flat: false,
             ..defaults
         };
         Ok(Self {

@@ -63,13 +63,18 @@ impl Agreement {
     /// along the weaker direction, plus at most a quarter of a pixel for the noise. Never for a
     /// window flatter than [`MIN_TEXTURE`].
     pub fn confirms(&self, tolerance: u32) -> bool {
-        // The sums are below 12 * 12 * 255 < 2^16 and the tolerance at most 2^8.
-        let per_pixel = |grey: u32| u64::from(grey * self.pixels);
-        if u64::from(self.texture) < per_pixel(MIN_TEXTURE) {
+        if self.is_flat() {
             return false;
         }
-        let allowed = u64::from(tolerance) * u64::from(self.texture) + per_pixel(NOISE);
+        // The sums are below 12 * 12 * 255 < 2^16 and the tolerance at most 2^8.
+        let allowed = u64::from(tolerance) * u64::from(self.texture)
+            + u64::from(NOISE) * u64::from(self.pixels);
         u64::from(self.mismatch) << 8 <= allowed
+    }
+
+    /// True for a window flatter than [`MIN_TEXTURE`], which the check says nothing about.
+    pub fn is_flat(&self) -> bool {
+        u64::from(self.texture) < u64::from(MIN_TEXTURE) * u64::from(self.pixels)
     }
 }
 

@@ -264,6 +264,16 @@ impl GridLayout {
     }
 }
 
+/// The camera check's verdict on one node.
+enum CameraCheck {
+    /// The node moves as predicted: it takes the prediction.
+    Confirmed,
+    /// The window is too flat for the check, and [`DenseParams::search_flat`] is off.
+    Flat,
+    /// LK decides.
+    Search,
+}
+
 /// The eight neighbours of a node, as (column, row) offsets.
 pub(crate) const NEIGHBOURS: [(isize, isize); 8] = [
     (-1, -1),
@@ -398,6 +408,12 @@ pub struct DenseParams {
     /// of its own texture (the mismatch of a one-pixel shift) takes the predicted flow without
     /// an LK search. 0 searches every node; so do windows wider than 12 px.
     pub camera_tolerance: f32,
+    /// With the camera check on, whether a window too flat for it (its neighbouring pixels
+    /// differ by less than 2 grey levels on average along its weaker direction) is still
+    /// searched by LK (`true`), or marked [`NodeStatus::LowTexture`] at once (`false`). LK
+    /// measures about half of those windows; on the reference firmware's frames, skipping them
+    /// takes a quarter of the grid's instructions and leaves its motion boxes as they were.
+    pub search_flat: bool,
 }
 
 impl DenseParams {
@@ -447,6 +463,7 @@ impl Default for DenseParams {
             max_residual: 12.0,
             fill_passes: 2,
             camera_tolerance: 0.25,
+            search_flat: true,
         }
     }
 }
@@ -676,21 +693,24 @@ impl DenseFlow {
         Ok(layout)
     }
 
-    /// True when the camera check confirms that the node at pixel `centre` lands at `guess`.
-    fn lands_at(
+    /// What the camera check says of the node at pixel `centre` landing at `guess`.
+    fn camera_check(
         &self,
         prev: &Pyramid<'_>,
         next: &Pyramid<'_>,
         centre: (usize, usize),
         guess: Point,
-    ) -> bool {
+    ) -> CameraCheck {
         if self.camera_tolerance == 0 {
-            return false;
+            return CameraCheck::Search;
         }
         let (prev, next) = (prev.base(), next.base());
         let win = self.params.lk.window;
-        agreement(&prev, &next, centre, guess, win)
-            .is_some_and(|a| a.confirms(self.camera_tolerance))
+        match agreement(&prev, &next, centre, guess, win) {
+            Some(a) if a.confirms(self.camera_tolerance) => CameraCheck::Confirmed,
+            Some(a) if a.is_flat() && !self.params.search_flat => CameraCheck::Flat,
+            _ => CameraCheck::Search,
+        }
     }
 
     /// Tracks the node centred at pixel `centre` and classifies it.
@@ -708,12 +728,16 @@ impl DenseFlow {
         let fine = match predict {
             Some(predict) => {
                 let guess = predict(start);
-                if self.lands_at(prev, next, (x, y), guess) {
-                    let flow = Point::new(
-                        guess.x.saturating_sub(start.x),
-                        guess.y.saturating_sub(start.y),
-                    );
-                    return Ok(GridNode::tracked(flow));
+                match self.camera_check(prev, next, (x, y), guess) {
+                    CameraCheck::Confirmed => {
+                        let flow = Point::new(
+                            guess.x.saturating_sub(start.x),
+                            guess.y.saturating_sub(start.y),
+                        );
+                        return Ok(GridNode::tracked(flow));
+                    }
+                    CameraCheck::Flat => return Ok(GridNode::invalid(NodeStatus::LowTexture)),
+                    CameraCheck::Search => {}
                 }
                 let step = self
                     .fine

@@ -96,6 +96,7 @@ pub fn run(data: &[u8]) {
         fill_passes: input.fill_passes % 6,
         // 0 (off) to 1.5 px: the last two are refused.
         camera_tolerance: f32::from(input.fill_passes % 7) * 0.25,
+        search_flat: (input.levels / 10) % 2 == 0,
     };
     let Ok(dense) = DenseFlow::new(params) else {
         return;

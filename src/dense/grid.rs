@@ -702,10 +702,12 @@ impl DenseFlow {
         centre: (usize, usize),
         guess: Point,
     ) -> CameraCheck {
-        if self.camera_tolerance == 0 {
+        let (prev, next) = (prev.base(), next.base());
+        // A prediction off the frame is LK's to refuse: a measured node lands inside it.
+        let landing = (guess.x.to_bits(), guess.y.to_bits());
+        if self.camera_tolerance == 0 || !crate::lk::inside(&next, landing) {
             return CameraCheck::Search;
         }
-        let (prev, next) = (prev.base(), next.base());
         let win = self.params.lk.window;
         match agreement(&prev, &next, centre, guess, win) {
             Some(a) if a.confirms(self.camera_tolerance) => CameraCheck::Confirmed,

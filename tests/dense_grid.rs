@@ -87,6 +87,21 @@ fn node_errors(layout: &GridLayout, nodes: &[GridNode], warp: &Homography) -> Ve
         .collect()
 }
 
+/// The pyramids of two frames to `levels`, in `storage` (resized to fit).
+fn pyramids<'a>(
+    first: &'a Frame,
+    second: &'a Frame,
+    levels: usize,
+    storage: (&'a mut Vec<u8>, &'a mut Vec<u8>),
+) -> (Pyramid<'a>, Pyramid<'a>) {
+    let len = pyramid_storage_len(first.width, first.height, levels);
+    storage.0.resize(len, 0);
+    storage.1.resize(len, 0);
+    let prev = Pyramid::build(first.view().unwrap(), levels, storage.0).unwrap();
+    let next = Pyramid::build(second.view().unwrap(), levels, storage.1).unwrap();
+    (prev, next)
+}
+
 fn grid_errors(width: usize, height: usize) -> GridErrors {
     let mut all = GridErrors {
         errors: Vec::new(),
@@ -246,10 +261,8 @@ fn searches_from_a_prediction_keep_the_grid_accurate_where_it_is_wrong() {
     let mut scratch = vec![0i16; scratch_len(params.lk.window)];
     let (mut whole, mut predicted) = (Vec::new(), Vec::new());
     for (_, _, warp, first, second) in warped_pairs(width, height) {
-        let len = pyramid_storage_len(width, height, 2);
-        let (mut sa, mut sb) = (vec![0u8; len], vec![0u8; len]);
-        let prev = Pyramid::build(first.view().unwrap(), 2, &mut sa).unwrap();
-        let next = Pyramid::build(second.view().unwrap(), 2, &mut sb).unwrap();
+        let (storage_a, storage_b) = (&mut Vec::new(), &mut Vec::new());
+        let (prev, next) = pyramids(&first, &second, 2, (storage_a, storage_b));
         let predict = |p: kestrel::Point| {
             let (x, y) = p.to_f32();
             let (tx, ty) = true_position(&warp, x, y);
@@ -303,10 +316,8 @@ fn flat_windows_are_left_unsearched_only_when_asked() {
     let mut scratch = vec![0i16; scratch_len(searched.lk.window)];
     let (mut differing, mut lost_measured, mut nodes_seen) = (0, 0, 0);
     for (_, _, warp, first, second) in warped_pairs(width, height) {
-        let len = pyramid_storage_len(width, height, 3);
-        let (mut sa, mut sb) = (vec![0u8; len], vec![0u8; len]);
-        let prev = Pyramid::build(first.view().unwrap(), 3, &mut sa).unwrap();
-        let next = Pyramid::build(second.view().unwrap(), 3, &mut sb).unwrap();
+        let (storage_a, storage_b) = (&mut Vec::new(), &mut Vec::new());
+        let (prev, next) = pyramids(&first, &second, 3, (storage_a, storage_b));
         let predict = |p: kestrel::Point| {
             let (x, y) = p.to_f32();
             let (tx, ty) = true_position(&warp, x, y);

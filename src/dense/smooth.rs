@@ -19,7 +19,7 @@
 //! reaches a node further ([`DEFAULT_PASSES`]): a wider average where the surface goes on,
 //! still bounded by the gate where it ends.
 
-use super::grid::{grid_side, GridLayout, GridNode, NodeStatus};
+use super::grid::{grid_side, GridLayout, GridNode, NodeStatus, NEIGHBOURS};
 use super::DenseError;
 use crate::q16::{Point, Q16};
 
@@ -158,18 +158,18 @@ impl Neighbourhood<'_> {
     fn fit(&self, nodes: &[GridNode], col: usize) -> Option<Point> {
         let centre = self.measured(nodes, col, (0, 0))?;
         let mut sums = FitSums::default();
-        for dr in -1..=1 {
-            for dc in -1..=1 {
-                let Some(flow) = self.measured(nodes, col, (dc, dr)) else {
-                    continue;
-                };
-                // Differences of two i32 values: exact in i64.
-                let x = i64::from(flow.x.to_bits()).saturating_sub(centre.x.to_bits().into());
-                let y = i64::from(flow.y.to_bits()).saturating_sub(centre.y.to_bits().into());
-                let gate = i64::from(self.gate);
-                if x.abs() <= gate && y.abs() <= gate {
-                    sums.add(dc as i64, dr as i64, (x, y));
-                }
+        // The node itself, at offset 0 and 0 from its own flow.
+        sums.add(0, 0, (0, 0));
+        for (dc, dr) in NEIGHBOURS {
+            let Some(flow) = self.measured(nodes, col, (dc, dr)) else {
+                continue;
+            };
+            // Differences of two i32 values: exact in i64.
+            let x = i64::from(flow.x.to_bits()).saturating_sub(centre.x.to_bits().into());
+            let y = i64::from(flow.y.to_bits()).saturating_sub(centre.y.to_bits().into());
+            let gate = i64::from(self.gate);
+            if x.abs() <= gate && y.abs() <= gate {
+                sums.add(dc as i64, dr as i64, (x, y));
             }
         }
         if sums.n < 2 {
@@ -178,8 +178,8 @@ impl Neighbourhood<'_> {
         let (x, y) = sums.intercept();
         let (px, py) = self.layout.centre(col, self.row);
         Some(Point::new(
-            inside(centre.x, x, px, self.layout.width())?,
-            inside(centre.y, y, py, self.layout.height())?,
+            kept_inside(centre.x, x, px, self.layout.width())?,
+            kept_inside(centre.y, y, py, self.layout.height())?,
         ))
     }
 }
@@ -187,7 +187,7 @@ impl Neighbourhood<'_> {
 /// The flow `flow + change` (Q16 bits) of a node centred at pixel `centre` along an axis of
 /// `size` pixels, held so that the node lands inside the frame as LK left it: the fit of
 /// its neighbours may not carry a border node out. `None` when it does not fit a Q16 flow.
-fn inside(flow: Q16, change: i64, centre: usize, size: usize) -> Option<Q16> {
+fn kept_inside(flow: Q16, change: i64, centre: usize, size: usize) -> Option<Q16> {
     let q16 = |v: usize| i64::try_from(v).map_or(i64::MAX, |v| v.saturating_mul(1 << 16));
     let (lowest, highest) = (
         q16(centre).saturating_neg(),

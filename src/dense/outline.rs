@@ -422,12 +422,14 @@ impl Outliner {
                             let (x, y) = ((area.x + col) / 2, (area.y + row) / 2);
                             let inside = (half.x..half.x + half.w).contains(&x)
                                 && (half.y..half.y + half.h).contains(&y);
-                            let at = (y.wrapping_sub(half.y)) * half.w + x.wrapping_sub(half.x);
-                            if inside {
-                                voters.get(at).copied().unwrap_or(0)
-                            } else {
-                                0
+                            if !inside {
+                                return 0;
                             }
+                            // Inside the level-1 area, so both differences are >= 0 and
+                            // the index is below half.w * half.h, the voters' length.
+                            let at = (y - half.y) * half.w + (x - half.x);
+                            debug_assert!(at < voters.len());
+                            voters.get(at).copied().unwrap_or(0)
                         });
                     }
                     flows
@@ -1224,6 +1226,20 @@ mod tests {
             near(found[0].4, (4.0, 0.0)) && near(found[1].4, (0.0, 4.0)),
             "{found:?}"
         );
+    }
+
+    #[test]
+    fn an_object_in_the_top_left_corner_is_outlined() {
+        // The area starts at the frame's first row and column, where the level-1 area starts
+        // one pixel in: the refinement's weights are asked for pixels left of and above it.
+        let objects = [((0, 0), (3, 0))];
+        let moving = [(0, 0), (1, 0), (0, 1), (1, 1)];
+        let boxes = outline(&objects, &moving, (3.0, 0.0), candidate(0, 0, 16, 14));
+        assert_eq!(boxes.len(), 1, "{boxes:?}");
+        let found = boxes[0];
+        assert!(found.x <= 1 && found.y <= 1, "{found:?}");
+        let (dx, dy) = found.mean_flow.to_f32();
+        assert!((dx - 3.0).abs() < 0.1 && dy.abs() < 0.1, "{found:?}");
     }
 
     #[test]

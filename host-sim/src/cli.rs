@@ -64,11 +64,20 @@ enum Failure {
     Command(CommandError),
 }
 
+impl From<CommandError> for Failure {
+    fn from(error: CommandError) -> Self {
+        match error {
+            CommandError::Usage(line) => Failure::Usage(line),
+            error => Failure::Command(error),
+        }
+    }
+}
+
 /// Runs `host-sim` with `args` (the program name first, as from [`std::env::args_os`]) and
 /// returns its exit status.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> ExitCode {
     let outcome = parse(args.into_iter().collect()).and_then(|parsed| match parsed {
-        Some(command) => execute(command).map_err(Failure::Command),
+        Some(command) => execute(command).map_err(Failure::from),
         None => Ok(()),
     });
     match outcome {

@@ -26,6 +26,8 @@ pub enum CommandError {
     Output(OutputError),
     /// The inputs were read but could not be processed.
     Processing(String),
+    /// Flags that are each valid but not together (`--flag: problem`): a bad command line.
+    Usage(String),
 }
 
 impl fmt::Display for CommandError {
@@ -33,7 +35,9 @@ impl fmt::Display for CommandError {
         match self {
             CommandError::Input(error) => error.fmt(f),
             CommandError::Output(error) => error.fmt(f),
-            CommandError::Processing(problem) => f.write_str(problem),
+            CommandError::Processing(problem) | CommandError::Usage(problem) => {
+                f.write_str(problem)
+            }
         }
     }
 }

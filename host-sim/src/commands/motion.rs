@@ -59,9 +59,7 @@ Exit status: 0 success; 1 unreadable or malformed input, or an output that canno
 2 bad command line."
 )]
 pub struct MotionOptions {
-    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file, or - for
-    /// y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - | host-sim motion - ...)
-    #[arg(value_name = "INPUT", value_parser = input)]
+    #[arg(value_name = "INPUT", value_parser = input, help = INPUT_HELP)]
     pub input: OsString,
     /// one row per box (see below)
     #[arg(long, value_name = "boxes.csv", value_parser = path)]
@@ -168,10 +166,17 @@ fn square(n: u8) -> Option<Structure> {
     }
 }
 
+/// The help of the sequence commands' INPUT.
+pub const INPUT_HELP: &str = "a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), \
+     a .y4m file (the Y plane), - for y4m on standard input, or a video file (mp4, mkv, avi, mov, \
+     webm, ...: any other file; ffmpeg, which must be on the PATH, decodes it to full-range grey)";
+
 /// The INPUT argument of the sequence commands, which must not be empty.
 pub fn input(text: &str) -> Result<OsString, String> {
     match text.is_empty() {
-        true => Err("must not be empty: a directory of frames, a .y4m file, or -".into()),
+        true => {
+            Err("must not be empty: a directory of frames, a .y4m file, a video file, or -".into())
+        }
         false => Ok(OsString::from(text)),
     }
 }

@@ -1,5 +1,5 @@
-//! Files in and out: single images, frame sequences (directories and y4m video), CSV, JSON, and
-//! atomic output files.
+//! Files in and out: single images, frame sequences (directories, y4m and, through ffmpeg, any
+//! video file), CSV, JSON, and atomic output files.
 //!
 //! Every failure is a value that names the file, and the frame or CSV cell when there is one, so
 //! the command line can report it as a single line.
@@ -11,6 +11,7 @@ pub mod jpeg;
 pub mod json;
 pub mod progress;
 pub mod sequence;
+pub mod video;
 pub mod y4m;
 
 use std::fmt;

@@ -1,4 +1,5 @@
-//! Frame sequences: a directory of images, a y4m file, or y4m on standard input.
+//! Frame sequences: a directory of images, a y4m file, y4m on standard input, or a video file
+//! (decoded by ffmpeg).
 
 use std::ffi::OsStr;
 use std::fmt;
@@ -7,7 +8,8 @@ use std::io::{self, BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use super::images::{has_image_extension, read_grey};
-use super::y4m::Y4mReader;
+use super::video::VideoReader;
+use super::y4m::{Y4mReader, SIGNATURE};
 use super::{describe_io_error, InputError, Place, STDIN_NAME};
 use crate::Frame;
 
@@ -36,6 +38,8 @@ enum Frames {
     Files(std::vec::IntoIter<PathBuf>),
     /// A y4m stream.
     Y4m(Y4mReader<Box<dyn BufRead>>),
+    /// A video file, decoded by ffmpeg as it is read.
+    Video(VideoReader),
 }
 
 impl fmt::Debug for FrameSource {
@@ -49,10 +53,12 @@ impl fmt::Debug for FrameSource {
 
 impl FrameSource {
     /// Opens `input` as the contract's INPUT: `-` is y4m on standard input, a directory holds one
-    /// image per frame in file-name order, and any other file is read as y4m.
+    /// image per frame in file-name order, a `.y4m` file is y4m, and any other file is a video
+    /// that ffmpeg decodes (see [`crate::io::video`]), unless it starts like a y4m stream.
+    /// A file named like a frame image is read as y4m (and refused as one), as it always was.
     ///
     /// Problems found without decoding (a missing input, a bad y4m header, a directory entry that
-    /// is not an image) are reported here, before any frame is processed.
+    /// is not an image, a video without ffmpeg) are reported here, before any frame is processed.
     pub fn open(input: &OsStr) -> Result<Self, InputError> {
         if input == "-" {
             return Self::from_y4m(Box::new(io::stdin().lock()), STDIN_NAME);
@@ -66,10 +72,19 @@ impl FrameSource {
         }
         let file = File::open(path).map_err(cannot_open)?;
         let file_len = file.metadata().ok().map(|m| m.len());
-        let mut source =
-            Self::from_y4m(Box::new(BufReader::new(file)), &path.display().to_string())?;
+        let mut reader = BufReader::new(file);
+        if !named_as_y4m(path) && !starts_as_y4m(&mut reader) {
+            return Self::from_video(path);
+        }
+        let mut source = Self::from_y4m(Box::new(reader), &path.display().to_string())?;
         source.file_len = file_len;
         Ok(source)
+    }
+
+    /// A sequence of the frames of the video file at `path`, decoded by ffmpeg.
+    pub fn from_video(path: &Path) -> Result<Self, InputError> {
+        let video = VideoReader::open(path)?;
+        Ok(Self::new(path.display().to_string(), Frames::Video(video)))
     }
 
     /// A sequence of the image files in `directory`, in file-name order; hidden files (names
@@ -109,21 +124,24 @@ impl FrameSource {
 
     /// The number of frames, when known before reading them: for a directory, its image files
     /// (a bad one still ends the sequence early); for a y4m file, its frames by its size;
-    /// `None` for a y4m stream.
+    /// `None` for a y4m stream and a video.
     pub fn frame_count(&self) -> Option<usize> {
         match &self.frames {
             Frames::Files(files) => Some(self.next_index + files.len()),
             Frames::Y4m(stream) => self.file_len.map(|len| stream.frames_in(len)),
+            Frames::Video(_) => None,
         }
     }
 
-    /// Frames per second, when the input says (a y4m header with a frame rate); image
-    /// directories carry no timing.
+    /// Frames per second, when the input says (a y4m header with a frame rate, a video's
+    /// rate as ffmpeg gives it); image directories carry no timing.
     pub fn frame_rate(&self) -> Option<f64> {
-        match &self.frames {
-            Frames::Files(_) => None,
-            Frames::Y4m(stream) => stream.header().frame_rate.map(|rate| rate.per_second()),
-        }
+        let header = match &self.frames {
+            Frames::Files(_) => return None,
+            Frames::Y4m(stream) => stream.header(),
+            Frames::Video(video) => video.header(),
+        };
+        header.frame_rate.map(|rate| rate.per_second())
     }
 
     /// The next frame and the name of the file it came from, `None` at the end.
@@ -137,6 +155,9 @@ impl FrameSource {
                 Ok(Some((frame, path.display().to_string())))
             }
             Frames::Y4m(stream) => Ok(stream.read_frame()?.map(|frame| (frame, self.name.clone()))),
+            Frames::Video(video) => Ok(video
+                .read_frame(index)?
+                .map(|frame| (frame, self.name.clone()))),
         }
     }
 
@@ -186,6 +207,23 @@ impl Iterator for FrameSource {
         }
         Some(item)
     }
+}
+
+/// True when `path`'s name says it is no video: a `.y4m` file, or a frame image.
+fn named_as_y4m(path: &Path) -> bool {
+    let y4m = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("y4m"));
+    y4m || has_image_extension(path)
+}
+
+/// True when the stream starts with the y4m signature, so that a y4m file under another name
+/// (`clip.yuv`, `clip`) is read as before videos were. A stream that cannot be read counts as
+/// y4m, for the y4m reader to report the error as before.
+fn starts_as_y4m(reader: &mut impl BufRead) -> bool {
+    reader
+        .fill_buf()
+        .map_or(true, |bytes| bytes.starts_with(SIGNATURE))
 }
 
 /// The visible entries of `directory`, sorted by name, each checked to be an image file.

@@ -18,7 +18,7 @@ use super::{check_frame_size, describe_io_error, InputError, Place};
 use crate::Frame;
 
 /// The stream signature that starts the header.
-const SIGNATURE: &[u8] = b"YUV4MPEG2";
+pub const SIGNATURE: &[u8] = b"YUV4MPEG2";
 /// The marker that starts each frame.
 const FRAME_MARKER: &[u8] = b"FRAME";
 /// Longest header line accepted: far above real headers, low enough to stop at once on a

@@ -12,12 +12,14 @@
 //! The camera model is the library's default: square pixels, principal point at the frame
 //! centre, a 60 degree horizontal field of view.
 
+use super::camera::{Camera, Shot, Subject};
 use super::glider::{Glider, GliderSize};
 use super::homography::Homography;
-use super::render::Lighting;
+use super::photo::Photo;
 use super::rng::SplitMix64;
 use super::rotation::{mul, rotation, transpose, Mat3};
 use super::scene::{Scene, SceneSpec};
+use super::texture::Extent;
 use crate::Frame;
 
 /// The kinds of camera motion.
@@ -168,7 +170,14 @@ impl Flight {
 
     /// The warp from frame 0 to frame `k`: where each pixel of frame 0 appears in frame `k`.
     pub fn homography(&self, k: usize) -> Homography {
-        let (r, c) = (self.orientation(k), self.centre(k));
+        self.homography_at(k as f64)
+    }
+
+    /// The warp from frame 0 to the view at instant `t`, in frame intervals from frame 0 (frame
+    /// `k` is seen at `t = k`): the flight is continuous, for a camera that exposes over an
+    /// interval or reads its rows one after the other.
+    pub fn homography_at(&self, t: f64) -> Homography {
+        let (r, c) = (self.orientation(t), self.centre(t));
         let n = self.normal;
         let plane: Mat3 = std::array::from_fn(|i| {
             std::array::from_fn(|j| f64::from(u8::from(i == j)) - c[i] * n[j])
@@ -182,10 +191,7 @@ impl Flight {
 
     /// The warp from frame `k - 1` to frame `k` (`k >= 1`).
     pub fn pair_homography(&self, k: usize) -> Homography {
-        let back = self
-            .homography(k - 1)
-            .inverse()
-            .expect("a camera in front of the ground sees it through an invertible warp");
+        let back = self.homography(k - 1).inverse().expect(INVERTIBLE);
         back.then(&self.homography(k))
     }
 
@@ -201,20 +207,38 @@ impl Flight {
         Some([-y * fps, x * fps, z * fps])
     }
 
-    /// The camera's axes in the world frame at frame `k`.
-    fn orientation(&self, k: usize) -> Mat3 {
+    /// The camera's axes in the world frame at instant `t`.
+    fn orientation(&self, t: f64) -> Mat3 {
         match self.path {
-            FlightPath::Shake if k > 0 => {
-                let mut rng = SplitMix64::substream(self.seed, TREMOR_STREAM | k as u64);
-                rotation(std::array::from_fn(|_| rng.uniform(-TREMOR, TREMOR)))
-            }
-            _ => rotation(self.rate.map(|w| w * k as f64)),
+            FlightPath::Shake => rotation(self.tremor_at(t)),
+            _ => rotation(self.rate.map(|w| w * t)),
         }
     }
 
-    /// The camera's centre in the world frame at frame `k`.
-    fn centre(&self, k: usize) -> [f64; 3] {
-        self.velocity.map(|v| v * k as f64)
+    /// The `shake` path's rotation vector at instant `t`: each frame's own tremor, and between
+    /// two frames the straight blend of theirs.
+    fn tremor_at(&self, t: f64) -> [f64; 3] {
+        let (before, share) = (t.floor(), t - t.floor());
+        let at_before = self.tremor(before);
+        if share == 0.0 {
+            return at_before;
+        }
+        let at_after = self.tremor(before + 1.0);
+        std::array::from_fn(|i| at_before[i] + share * (at_after[i] - at_before[i]))
+    }
+
+    /// The rotation vector of the tremor in frame `k` (none in frame 0 and before it).
+    fn tremor(&self, k: f64) -> [f64; 3] {
+        if k <= 0.0 {
+            return [0.0; 3];
+        }
+        let mut rng = SplitMix64::substream(self.seed, TREMOR_STREAM | k as u64);
+        std::array::from_fn(|_| rng.uniform(-TREMOR, TREMOR))
+    }
+
+    /// The camera's centre in the world frame at instant `t`.
+    fn centre(&self, t: f64) -> [f64; 3] {
+        self.velocity.map(|v| v * t)
     }
 }
 
@@ -228,6 +252,7 @@ pub struct FlightSequence {
     scene: Scene,
     flight: Flight,
     objects: Vec<Glider>,
+    camera: Camera,
 }
 
 impl FlightSequence {
@@ -262,7 +287,44 @@ impl FlightSequence {
             scene: Scene::new(spec),
             flight: Flight::new(path, w, h, spec.seed),
             objects,
+            camera: Camera::default(),
         }
+    }
+
+    /// The same flight filmed by `camera` (the ideal [`Camera::default`] otherwise).
+    pub fn with_camera(self, camera: Camera) -> Self {
+        Self { camera, ..self }
+    }
+
+    /// The same flight over `photo` instead of the procedural texture: the photograph covers
+    /// the ground the camera sees in frames 0 to `frames - 1`, a frame interval either side
+    /// included for the exposures and the rolling shutter.
+    pub fn with_photo(self, photo: &Frame, frames: usize) -> Self {
+        let seen = self.ground_seen(-1.0, frames as f64);
+        let photo = Photo::covering(photo, seen);
+        Self {
+            scene: self.scene.with_photo(photo),
+            ..self
+        }
+    }
+
+    /// The part of the ground plane seen from instant `first` to `last`: the box around the
+    /// frame's outline seen back on the plane every tenth of a frame, grown by a pixel.
+    pub fn ground_seen(&self, first: f64, last: f64) -> Extent {
+        let (w, h) = (self.scene.spec.width as f64, self.scene.spec.height as f64);
+        let corners = [
+            (-0.5, -0.5),
+            (w - 0.5, -0.5),
+            (-0.5, h - 0.5),
+            (w - 0.5, h - 0.5),
+        ];
+        let steps = ((last - first) * 10.0).ceil().max(1.0) as usize;
+        let seen = (0..=steps).flat_map(|step| {
+            let t = first + (last - first) * step as f64 / steps as f64;
+            let back = self.flight.homography_at(t).inverse().expect(INVERTIBLE);
+            corners.map(|(x, y)| back.apply(x, y))
+        });
+        Extent::enclosing(seen, 1.0)
     }
 
     /// The independently moving objects, back to front.
@@ -277,13 +339,47 @@ impl FlightSequence {
 
     /// Frame `k` (rendered on demand; frame `k` always has the same noise).
     pub fn frame(&self, k: usize) -> Frame {
-        let overlay = |x, y| self.objects.iter().rev().find_map(|o| o.value(k, x, y));
-        self.scene.render_with_overlay(
-            &self.flight.homography(k),
-            Lighting::UNCHANGED,
-            k as u64,
-            overlay,
-        )
+        let spec = &self.scene.spec;
+        let shot = Shot {
+            index: k,
+            width: spec.width,
+            height: spec.height,
+            supersample: spec.supersample,
+            noise_sigma: spec.noise_sigma,
+            noise_seed: self.scene.noise_seed(k as u64),
+        };
+        self.camera.shoot(&shot, self)
+    }
+}
+
+/// Why the flight's warps can be inverted.
+const INVERTIBLE: &str = "a camera in front of the ground sees it through an invertible warp";
+
+impl Subject for FlightSequence {
+    /// The objects where they are at `t`, and elsewhere the ground seen through the flight's
+    /// warp at `t`.
+    fn view(&self, t: f64) -> impl Fn(f64, f64) -> f64 + '_ {
+        let back = self.flight.homography_at(t).inverse().expect(INVERTIBLE);
+        move |x, y| {
+            let object = self.objects.iter().rev().find_map(|o| o.value_at(t, x, y));
+            object.unwrap_or_else(|| {
+                let (u, v) = back.apply(x, y);
+                self.scene.value(t, u, v)
+            })
+        }
+    }
+
+    /// The larger of the frame corners' motion and the objects' motion.
+    fn travel(&self, t0: f64, t1: f64) -> f64 {
+        let (w, h) = (self.scene.spec.width as f64, self.scene.spec.height as f64);
+        let (from, to) = (self.flight.homography_at(t0), self.flight.homography_at(t1));
+        self.objects
+            .iter()
+            .map(|object| {
+                let (a, b) = (object.position_at(t0), object.position_at(t1));
+                (a.0 - b.0).hypot(a.1 - b.1)
+            })
+            .fold(from.distance(&to, w, h), f64::max)
     }
 }
 
@@ -323,6 +419,44 @@ mod tests {
         let (x, y) = drift.apply(79.5, 59.5);
         let expected = turn.then(&Homography::translation(x - 79.5, y - 59.5));
         assert!(drift.distance(&expected, 160.0, 120.0) < 1e-9);
+    }
+
+    #[test]
+    fn the_ideal_camera_renders_what_the_scene_renders() {
+        // What frame() was before the camera model: the scene through the frame's warp, with
+        // the objects over it, developed with additive noise.
+        let spec = SceneSpec::new(64, 48, 3).with_noise(1.5);
+        for path in FlightPath::ALL {
+            let sequence = FlightSequence::new(spec, path, 2);
+            for k in [0, 1, 4] {
+                let overlay = |x, y| sequence.objects.iter().rev().find_map(|o| o.value(k, x, y));
+                let warp = sequence.flight.homography(k);
+                let lighting = crate::synth::Lighting::UNCHANGED;
+                let direct = sequence
+                    .scene
+                    .render_with_overlay(&warp, lighting, k as u64, overlay);
+                assert_eq!(sequence.frame(k), direct, "{path:?} frame {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn between_frames_the_flight_moves_continuously() {
+        for path in FlightPath::ALL {
+            let flight = Flight::new(path, 160, 120, 6);
+            let (a, b) = (flight.homography(3), flight.homography(4));
+            let middle = flight.homography_at(3.5);
+            let (to_a, to_b) = (
+                middle.distance(&a, 160.0, 120.0),
+                middle.distance(&b, 160.0, 120.0),
+            );
+            let step = a.distance(&b, 160.0, 120.0);
+            assert!(
+                to_a < 0.6 * step && to_b < 0.6 * step,
+                "{path:?}: {to_a} {to_b} {step}"
+            );
+            assert_eq!(flight.homography_at(4.0), b);
+        }
     }
 
     #[test]

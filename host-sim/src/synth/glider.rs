@@ -95,7 +95,12 @@ impl Glider {
 
     /// The object's centre in frame `k`, px.
     pub fn position(&self, k: usize) -> (f64, f64) {
-        let angle = self.phase + self.rate * k as f64;
+        self.position_at(k as f64)
+    }
+
+    /// The object's centre at instant `t`, in frame intervals from frame 0, px.
+    pub fn position_at(&self, t: f64) -> (f64, f64) {
+        let angle = self.phase + self.rate * t;
         (
             self.centre.0 + self.swing.0 * angle.sin(),
             self.centre.1 + self.swing.1 * (1.3 * angle).cos(),
@@ -126,7 +131,12 @@ impl Glider {
 
     /// The object's grey level at (`x`, `y`) of frame `k`, or `None` where it is not.
     pub fn value(&self, k: usize, x: f64, y: f64) -> Option<f64> {
-        let (cx, cy) = self.position(k);
+        self.value_at(k as f64, x, y)
+    }
+
+    /// The object's grey level at (`x`, `y`) at instant `t`, or `None` where it is not.
+    pub fn value_at(&self, t: f64, x: f64, y: f64) -> Option<f64> {
+        let (cx, cy) = self.position_at(t);
         let (u, v) = (x - cx, y - cy);
         let inside = u.abs() <= self.half.0 && v.abs() <= self.half.1;
         inside.then(|| self.texture.value(u, v))

@@ -16,11 +16,13 @@
 //! assert_eq!(truth.len(), points.len());
 //! ```
 
+pub mod camera;
 mod flight;
 mod glider;
 mod homography;
 mod object;
 pub mod objects;
+mod photo;
 mod points;
 mod render;
 mod rng;
@@ -29,10 +31,12 @@ mod scene;
 mod sequence;
 mod texture;
 
+pub use camera::{AutoExposure, Camera, Light, Shot, Shutter, Subject, Vignetting};
 pub use flight::{Flight, FlightPath, FlightSequence, OBJECT_SHARE};
 pub use glider::{Glider, GliderSize};
 pub use homography::Homography;
 pub use object::{MovingObject, Surface};
+pub use photo::Photo;
 pub use points::{grid_points, textured_points};
 pub use render::{area_sample, Exposure, Lighting};
 pub use rng::{lattice, mix, SplitMix64};

@@ -386,7 +386,7 @@ impl ObjectScene {
                 .find(|(_, b)| b.contains(eu, ev));
             match front {
                 Some((object, b)) => object.value(eu - b.x, ev - b.y),
-                None => self.scene.texture.value(u, v),
+                None => self.scene.ground(u, v),
             }
         });
         let exposure = Exposure {

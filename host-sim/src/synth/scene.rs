@@ -2,6 +2,7 @@
 
 use super::homography::Homography;
 use super::object::MovingObject;
+use super::photo::Photo;
 use super::render::{area_sample, Exposure, Lighting};
 use super::rng::SplitMix64;
 use super::texture::{Extent, Texture};
@@ -62,6 +63,8 @@ pub struct Scene {
     pub texture: Texture,
     /// Objects in front of the plane, each drawn over the ones before it.
     pub objects: Vec<MovingObject>,
+    /// A photograph that covers the plane instead of the texture, when there is one.
+    pub photo: Option<Photo>,
 }
 
 impl Scene {
@@ -74,6 +77,7 @@ impl Scene {
             spec,
             texture: Texture::random(spec.seed, extent),
             objects: Vec::new(),
+            photo: None,
         }
     }
 
@@ -82,12 +86,28 @@ impl Scene {
         Self { objects, ..self }
     }
 
-    /// The grey level of plane point (`u`, `v`) at frame `frame`: the texture, with the objects
+    /// The same scene with `photo` on the plane instead of the texture.
+    pub fn with_photo(self, photo: Photo) -> Self {
+        Self {
+            photo: Some(photo),
+            ..self
+        }
+    }
+
+    /// The grey level of the plane itself at (`u`, `v`): the photograph, or the texture.
+    pub fn ground(&self, u: f64, v: f64) -> f64 {
+        match &self.photo {
+            Some(photo) => photo.value(u, v),
+            None => self.texture.value(u, v),
+        }
+    }
+
+    /// The grey level of plane point (`u`, `v`) at frame `frame`: the ground, with the objects
     /// that cover it drawn over it.
     pub fn value(&self, frame: f64, u: f64, v: f64) -> f64 {
         self.objects
             .iter()
-            .fold(self.texture.value(u, v), |below, object| {
+            .fold(self.ground(u, v), |below, object| {
                 let alpha = object.coverage(frame, u, v);
                 if alpha > 0.0 {
                     alpha * object.value(frame, u, v) + (1.0 - alpha) * below
@@ -134,9 +154,14 @@ impl Scene {
         let exposure = Exposure {
             lighting,
             noise_sigma: self.spec.noise_sigma,
-            noise_seed: SplitMix64::substream(self.spec.seed, 1 << 32 | frame_index).next_u64(),
+            noise_seed: self.noise_seed(frame_index),
         };
         exposure.develop(w, h, &radiance)
+    }
+
+    /// The seed of the sensor noise of frame `frame_index`.
+    pub fn noise_seed(&self, frame_index: u64) -> u64 {
+        SplitMix64::substream(self.spec.seed, 1 << 32 | frame_index).next_u64()
     }
 }
 

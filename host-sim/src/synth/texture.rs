@@ -57,11 +57,41 @@ impl Extent {
         }
     }
 
-    fn width(&self) -> f64 {
+    /// The smallest extent holding every one of `points`, grown by `margin` on every side.
+    ///
+    /// ```
+    /// use host_sim::synth::Extent;
+    /// let extent = Extent::enclosing([(1.0, 5.0), (-2.0, 3.0)].into_iter(), 0.5);
+    /// assert_eq!((extent.left, extent.top, extent.right, extent.bottom), (-2.5, 2.5, 1.5, 5.5));
+    /// ```
+    pub fn enclosing(points: impl Iterator<Item = (f64, f64)>, margin: f64) -> Self {
+        let empty = Self {
+            left: f64::INFINITY,
+            top: f64::INFINITY,
+            right: f64::NEG_INFINITY,
+            bottom: f64::NEG_INFINITY,
+        };
+        let tight = points.fold(empty, |e, (x, y)| Self {
+            left: e.left.min(x),
+            top: e.top.min(y),
+            right: e.right.max(x),
+            bottom: e.bottom.max(y),
+        });
+        Self {
+            left: tight.left - margin,
+            top: tight.top - margin,
+            right: tight.right + margin,
+            bottom: tight.bottom + margin,
+        }
+    }
+
+    /// Its width, px.
+    pub fn width(&self) -> f64 {
         self.right - self.left
     }
 
-    fn height(&self) -> f64 {
+    /// Its height, px.
+    pub fn height(&self) -> f64 {
         self.bottom - self.top
     }
 

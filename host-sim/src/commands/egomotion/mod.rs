@@ -31,7 +31,7 @@ use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlow, OpticalFlowRad, R
 use kestrel::ego::camera::FOCAL_RANGE;
 use kestrel::ego::ModelKind;
 
-use super::motion::input;
+use super::motion::{input, INPUT_HELP};
 use super::CommandError;
 use crate::cli::values::{self, path};
 use crate::io::csv::CsvWriter;
@@ -94,9 +94,7 @@ Exit status: 0 success; 1 unreadable or malformed input, or an output that canno
 2 bad command line."
 )]
 pub struct EgomotionOptions {
-    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file, or - for
-    /// y4m on standard input
-    #[arg(value_name = "INPUT", value_parser = input)]
+    #[arg(value_name = "INPUT", value_parser = input, help = INPUT_HELP)]
     pub input: OsString,
     /// results, one row per frame pair (see below)
     #[arg(long, value_name = "ego.csv", value_parser = path)]
@@ -126,7 +124,7 @@ pub struct EgomotionOptions {
     /// fast as it can]
     #[arg(long, value_name = "HZ", value_parser = rate)]
     pub rate: Option<f64>,
-    /// frame rate, 1 to 10000 [default: the y4m header's, else 30]
+    /// frame rate, 1 to 10000 [default: the y4m header's or the video's, else 30]
     #[arg(long, value_name = "F", value_parser = fps)]
     pub fps: Option<f64>,
     /// points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]

@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use kestrel::ego::ModelKind;
 
 use super::egomotion::{max_points, model, threshold};
-use super::motion::input;
+use super::motion::{input, INPUT_HELP};
 use super::synth_sequence::frame_name;
 use super::CommandError;
 use crate::cli::values::{self, path};
@@ -52,9 +52,7 @@ Exit status: 0 success; 1 unreadable or malformed input, or an output that canno
 2 bad command line."
 )]
 pub struct StabilizeOptions {
-    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file, or - for
-    /// y4m on standard input
-    #[arg(value_name = "INPUT", value_parser = input)]
+    #[arg(value_name = "INPUT", value_parser = input, help = INPUT_HELP)]
     pub input: OsString,
     /// output directory, created if missing: frame_00000.png, frame_00001.png, ... (8-bit
     /// grey, the input's size, in input order)

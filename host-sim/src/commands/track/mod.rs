@@ -9,7 +9,7 @@ use std::ffi::OsString;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use super::motion::input;
+use super::motion::{input, INPUT_HELP};
 use super::{median, CommandError};
 use crate::cli::values::{self, path};
 use crate::io::csv::{CsvWriter, Fixed4};
@@ -57,10 +57,7 @@ Exit status: 0 success; 1 unreadable or malformed input, or an output that canno
 2 bad command line."
 )]
 pub struct TrackOptions {
-    /// a directory of frames (PNG, JPEG, PGM or BMP, in file-name order), a .y4m file (the Y
-    /// plane), or - for y4m on standard input (ffmpeg -i clip.mp4 -f yuv4mpegpipe - |
-    /// host-sim track - ...)
-    #[arg(value_name = "INPUT", value_parser = input)]
+    #[arg(value_name = "INPUT", value_parser = input, help = INPUT_HELP)]
     pub input: OsString,
     /// tracks, one row per live track per frame (see below)
     #[arg(long, value_name = "FILE", value_parser = path)]

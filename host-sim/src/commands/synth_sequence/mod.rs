@@ -5,7 +5,13 @@
 //! pair, in ego.csv's layout) and, for paths that turn at a constant rate, `gyro.csv` (the exact
 //! body rates, sampled every millisecond from frame 0 to the last frame, in the layout
 //! `egomotion --gyro` reads) and, with moving objects, `objects.csv` (every object's box in
-//! every frame from 1, as `motion` numbers its boxes, to score them).
+//! every frame from 1, as `motion` numbers its boxes, to score them), and with
+//! `--auto-exposure`, `exposure.csv` (each frame's gain and bias).
+//!
+//! The camera flags ([`camera_flags`]) film the flight with a real camera's defects; without
+//! them the frames are those of the ideal camera, unchanged.
+
+mod camera_flags;
 
 use std::path::PathBuf;
 
@@ -19,7 +25,10 @@ use crate::io::atomic::write_atomically;
 use crate::io::csv::CsvWriter;
 use crate::io::images::write_png;
 use crate::io::{create_output_dir, Progress};
-use crate::synth::{FlightPath, FlightSequence, GliderSize, SceneSpec, OBJECT_SHARE};
+use crate::synth::{
+    AutoExposure, Camera, FlightPath, FlightSequence, GliderSize, SceneSpec, OBJECT_SHARE,
+};
+use camera_flags::CameraOptions;
 
 /// `host-sim synth-sequence`: its flags, their rules and its usage text.
 #[derive(Debug, Clone, PartialEq, clap::Args)]
@@ -42,6 +51,8 @@ The camera looks down at a plane with a 60 degree horizontal field of view. Path
   truth.csv                frame,h11,...,h33: the exact homography from frame-1 to frame
   gyro.csv                 t_us,gx,gy,gz: the exact body rates every millisecond, for
                            'egomotion --gyro' (all paths but shake)
+  exposure.csv             frame,gain,bias (with --auto-exposure): each frame's gain and
+                           bias, I' = gain x I + bias
   objects.csv              frame,id,x,y,w,h,dx,dy (with --objects): every object's box in
                            every frame from 1, as 'host-sim motion' numbers its boxes.csv;
                            id 0 to K-1; x,y the box's left and top pixel edges and w,h its
@@ -55,7 +66,22 @@ to 12 px targets at 160x120 (--object-size 20-24 at 320x240) for 'host-sim motio
       --object-size 10-12 --noise 1.5
   host-sim motion f/frames --out boxes.csv     (then match boxes.csv to f/objects.csv)
 
-Exit status: 0 success; 1 an output that cannot be written; 2 bad command line."
+The camera: time is counted in frame intervals (1 / --fps). Frame k's reference instant, at
+which truth.csv, gyro.csv and objects.csv hold exactly, is the middle of its first row's
+exposure. With --exposure each row integrates the scene over the exposure centred on its own
+instant (sampled at most half a pixel of motion apart); with --rolling-shutter row r of R is
+read r / R of the readout time after the first. Each sensor pixel then goes through, in order:
+vignetting, the auto-exposure gain and bias, shot and read noise, --noise; then binning
+(--downscale), rounding to 8 bits, JPEG (--jpeg).
+
+The light model (--light): a pixel of ideal grey level g collects on average
+  g / 255 x 10000 electrons x (lux / 1000) x (exposure / 10 ms),
+Poisson-distributed, plus Gaussian read noise (--read-noise); the gain that follows keeps the
+mean at g, so the noise grows with g and with less light: at mid grey and 10 ms its standard
+deviation is about 1.8 grey levels at 1000 lux, 7.5 at 60 lux and 30 at 5 lux.
+
+Exit status: 0 success; 1 an unreadable --scene image or an output that cannot be written;
+2 bad command line."
 )]
 pub struct SynthSequenceOptions {
     /// output directory, created if missing
@@ -84,12 +110,27 @@ pub struct SynthSequenceOptions {
     /// (10-12), 1 to 4096; such objects are textured all over, on the same paths
     #[arg(long, value_name = "PX", value_parser = object_size)]
     pub object_size: Option<(f64, f64)>,
-    /// sensor noise, 0 to 50 grey levels
-    #[arg(long, value_name = "SIGMA", default_value_t = 1.0, value_parser = noise)]
-    pub noise: f64,
-    /// frame rate of the gyro log's clock, 1 to 10000
+    /// additive Gaussian sensor noise, 0 to 50 grey levels [default: 1; 0 with --light]
+    #[arg(long, value_name = "SIGMA", value_parser = noise)]
+    pub noise: Option<f64>,
+    /// frame rate, 1 to 10000: the gyro log's clock, and the camera's for --exposure and
+    /// --rolling-shutter
     #[arg(long, value_name = "F", default_value_t = 30.0, value_parser = fps)]
     pub fps: f64,
+    #[command(flatten)]
+    pub camera: CameraOptions,
+}
+
+impl SynthSequenceOptions {
+    /// The additive noise: as given, else 1 grey level, or none when --light models it.
+    fn noise(&self) -> f64 {
+        let default = if self.camera.light.is_some() {
+            0.0
+        } else {
+            1.0
+        };
+        self.noise.unwrap_or(default)
+    }
 }
 
 fn frames(text: &str) -> Result<usize, String> {
@@ -132,15 +173,10 @@ const GYRO_RATE_HZ: u64 = 1000;
 
 /// Runs `synth-sequence`.
 pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
+    let camera = options.camera.camera(options.fps, options.seed)?;
+    let sequence = flight_sequence(options, camera)?;
     let frames_dir = options.out.join("frames");
     create_output_dir(&frames_dir)?;
-    let spec =
-        SceneSpec::new(options.width, options.height, options.seed).with_noise(options.noise);
-    let size = match options.object_size {
-        Some((low, high)) => GliderSize::Sides(low, high),
-        None => GliderSize::Share(OBJECT_SHARE),
-    };
-    let sequence = FlightSequence::with_object_size(spec, options.path, options.objects, size);
     let mut progress = Progress::new("synth-sequence", Some(options.frames));
     for k in 0..options.frames {
         write_png(&frames_dir.join(frame_name(k)), &sequence.frame(k))?;
@@ -157,6 +193,12 @@ pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
             objects_csv(&sequence, options.frames).as_bytes(),
         )?;
     }
+    if let Some(steps) = camera.auto_exposure {
+        write_atomically(
+            &options.out.join("exposure.csv"),
+            exposure_csv(steps, options.frames).as_bytes(),
+        )?;
+    }
     let clock = FrameClock::new(options.fps);
     if let Some(rates) = sequence.flight().body_rates(options.fps) {
         let end_us = clock.time_us(options.frames - 1);
@@ -167,6 +209,39 @@ pub fn run(options: &SynthSequenceOptions) -> Result<(), CommandError> {
     }
     Ok(())
 }
+
+/// The flight the options describe, filmed by `camera`, over the --scene photograph if given.
+fn flight_sequence(
+    options: &SynthSequenceOptions,
+    camera: Camera,
+) -> Result<FlightSequence, CommandError> {
+    let spec =
+        SceneSpec::new(options.width, options.height, options.seed).with_noise(options.noise());
+    let size = match options.object_size {
+        Some((low, high)) => GliderSize::Sides(low, high),
+        None => GliderSize::Share(OBJECT_SHARE),
+    };
+    let sequence = FlightSequence::with_object_size(spec, options.path, options.objects, size)
+        .with_camera(camera);
+    Ok(match options.camera.photo()? {
+        Some(photo) => sequence.with_photo(&photo, options.frames),
+        None => sequence,
+    })
+}
+
+/// `frame,gain,bias`: the auto-exposure loop's gain and bias in every frame.
+fn exposure_csv(steps: AutoExposure, frames: usize) -> String {
+    let mut csv = CsvWriter::new(Vec::new(), &EXPOSURE_COLUMNS).expect("CSV into memory");
+    for k in 0..frames {
+        let lighting = steps.lighting(k);
+        let values = [lighting.gain, lighting.bias].map(|v| format!("{v:.6}"));
+        csv.record((k, values)).expect("CSV into memory");
+    }
+    String::from_utf8(csv.finish().expect("CSV into memory")).expect("ASCII")
+}
+
+/// Columns of exposure.csv.
+const EXPOSURE_COLUMNS: [&str; 3] = ["frame", "gain", "bias"];
 
 /// The file name of frame `k`: zero-padded, so file-name order is frame order.
 pub fn frame_name(k: usize) -> String {

@@ -33,26 +33,22 @@ Usage: bench/real_footage.py [--frames N] [--round-trip N] [--clip FILE ...] [--
 """
 
 import argparse
-import csv
 import datetime
 import json
 import os
-import subprocess
+import sys
 import tempfile
 
 import cv2
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
-MAX_TRACKS = 100
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import track_vs_opencv as klt  # noqa: E402  (OpenCV's loop and host-sim's track files)
+from track_vs_opencv import HOST_SIM, MAX_TRACKS, run  # noqa: E402
+
 REFILL_BELOW = 80
 # A background pixel changes by at most this over the clip (grey levels, after a 5 x 5 blur).
 STILL_LEVELS = 12
-
-
-def run(*args):
-    subprocess.run(args, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
 
 
 def decode(path, frames):
@@ -131,12 +127,7 @@ def kestrel(images, directory, extra=()):
     stats = os.path.join(directory, "stats.json")
     run(HOST_SIM, "track", frames, "--out", tracks_csv, "--max-tracks", str(MAX_TRACKS),
         "--stats", stats, *extra)
-    history = {}
-    with open(tracks_csv, newline="") as f:
-        for r in csv.DictReader(f):
-            history.setdefault(int(r["id"]), {})[int(r["frame"])] = (float(r["x"]), float(r["y"]))
-    with open(stats) as f:
-        summary = json.load(f)
+    history, summary = klt.read_kestrel(tracks_csv, stats)
     drops = dict(summary.get("drops", {}))
     if summary.get("recaptured"):
         drops["(recaptured, kept)"] = summary["recaptured"]
@@ -144,33 +135,7 @@ def kestrel(images, directory, extra=()):
 
 
 def opencv(images):
-    cv2.setNumThreads(1)
-    lk = dict(winSize=(21, 21), maxLevel=3,
-              criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
-    history, live, next_id = {}, [], 0
-    h, w = images[0].shape
-    for k, frame in enumerate(images):
-        if live and k > 0:
-            p0 = np.float32([history[i][k - 1] for i in live]).reshape(-1, 1, 2)
-            p1, _, _ = cv2.calcOpticalFlowPyrLK(images[k - 1], frame, p0, None, **lk)
-            back, _, _ = cv2.calcOpticalFlowPyrLK(frame, images[k - 1], p1, None, **lk)
-            good = np.abs(p0 - back).reshape(-1, 2).max(-1) < 1.0
-            kept = []
-            for i, p, ok in zip(live, p1.reshape(-1, 2), good):
-                if ok and 0 <= p[0] <= w - 1 and 0 <= p[1] <= h - 1:
-                    history[i][k] = (float(p[0]), float(p[1]))
-                    kept.append(i)
-            live = kept
-        if k == 0 or len(live) < REFILL_BELOW:
-            mask = np.full_like(frame, 255)
-            for i in live:
-                cv2.circle(mask, tuple(int(v) for v in history[i][k]), 5, 0, -1)
-            corners = cv2.goodFeaturesToTrack(frame, MAX_TRACKS - len(live), 0.01, 5,
-                                              mask=mask, blockSize=7)
-            for p in ([] if corners is None else corners.reshape(-1, 2)):
-                history[next_id] = {k: (float(p[0]), float(p[1]))}
-                live.append(next_id)
-                next_id += 1
+    history, _, _ = klt.opencv(images, REFILL_BELOW)
     return history
 
 

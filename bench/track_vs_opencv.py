@@ -69,16 +69,24 @@ def kestrel(directory, extra=()):
     stats = os.path.join(directory, "stats.json")
     run(HOST_SIM, "track", os.path.join(directory, "frames"), "--out", tracks_csv,
         "--max-tracks", str(MAX_TRACKS), "--stats", stats, *extra)
+    history, summary = read_kestrel(tracks_csv, stats)
+    return history, summary["median_frame_seconds"], summary.get("drops", {})
+
+
+def read_kestrel(tracks_csv, stats):
+    """`host-sim track`'s tracks as {id: {frame: (x, y)}}, and its --stats summary."""
     history = {}
     with open(tracks_csv, newline="") as f:
         for r in csv.DictReader(f):
             history.setdefault(int(r["id"]), {})[int(r["frame"])] = (float(r["x"]), float(r["y"]))
     with open(stats) as f:
-        summary = json.load(f)
-    return history, summary["median_frame_seconds"], summary.get("drops", {})
+        return history, json.load(f)
 
 
-def opencv(images):
+def opencv(images, refill_below=MAX_TRACKS):
+    """OpenCV's lk_track loop, refilled up to MAX_TRACKS whenever fewer than `refill_below`
+    tracks are live: the tracks as {id: {frame: (x, y)}}, the median seconds per frame, and no
+    drops by gate (it has none)."""
     cv2.setNumThreads(1)
     lk = dict(winSize=(21, 21), maxLevel=3,
               criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
@@ -97,7 +105,7 @@ def opencv(images):
                     history[i][k] = (float(p[0]), float(p[1]))
                     kept.append(i)
             live = kept
-        if len(live) < MAX_TRACKS:
+        if len(live) < refill_below:
             mask = np.full_like(frame, 255)
             for i in live:
                 cv2.circle(mask, tuple(int(v) for v in history[i][k]), 5, 0, -1)

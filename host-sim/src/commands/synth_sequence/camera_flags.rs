@@ -106,7 +106,7 @@ fn frame_share(flag: &str, ms: Option<f64>, fps: f64) -> Result<f64, CommandErro
     let interval = 1000.0 / fps;
     match ms <= interval {
         true => Ok(ms / interval),
-        false => Err(CommandError::Usage(format!(
+        false => Err(usage(&format!(
             "{flag}: must not exceed the frame interval, {interval:.3} ms at --fps {fps} (got {ms})"
         ))),
     }

@@ -278,10 +278,19 @@ fn camera_costs(
     rows: &mut [u16],
 ) {
     let row_len = area.w + 2;
-    for r in 0..area.h + 2 {
-        let Some(out) = rows.get_mut(r * row_len..(r + 1) * row_len) else {
-            return;
-        };
+    // The vote's area is at most (side / 2 + 1) px on a side, so its rows and the pixel around
+    // them, (side / 2 + 3)^2 <= side^2 for a side of at least MIN_SIDE, fit in the labels'
+    // side x side. Checked once, before any row is written.
+    let needed = (area.h + 2) * row_len;
+    debug_assert!(
+        rows.len() >= needed,
+        "camera costs: {} < {needed}",
+        rows.len()
+    );
+    let Some(rows) = rows.get_mut(..needed) else {
+        return;
+    };
+    for (r, out) in rows.chunks_exact_mut(row_len).enumerate() {
         camera_row(prev, next, camera, area, area.y + r - 1, out);
     }
 }
@@ -415,7 +424,10 @@ impl Outliner {
                     let (mut flows, half) =
                         self.vote(&prev1, &next1, camera, &area, labels, stack, votes);
                     // The vote's flows are whole level-1 pixels: to a pixel at level 0 at best.
-                    // Its voters (in `stack` past the level-1 pixels' costs) refine them.
+                    // Its voters (in `stack` past the level-1 pixels' costs) refine them. The
+                    // level-1 area is at most a quarter of the stack's side x side, so the
+                    // range is never empty; were it, no pixel would take part (label 0).
+                    debug_assert!(half.w * half.h <= stack.len());
                     let voters = stack.get(half.w * half.h..).unwrap_or(&[]);
                     for _ in 0..self.params.refinements {
                         refine(&base, &next_base, &area, &mut flows, |col, row| {
@@ -507,8 +519,10 @@ impl Outliner {
         camera_costs(prev, next, &half, &level1, diffs);
         let row_len = half.w + 2;
         for (row, costs) in best_cost.chunks_mut(half.w.max(1)).enumerate() {
-            let rows = diffs.get(row * row_len..(row + 3) * row_len).unwrap_or(&[]);
-            sums3(rows, half.w, |x, e| costs[x] = e);
+            // Rows below half.h + 2, all written by camera_costs (see there for why they fit).
+            let rows = diffs.get(row * row_len..(row + 3) * row_len);
+            debug_assert!(rows.is_some(), "vote: row {row} of the camera's costs");
+            sums3(rows.unwrap_or(&[]), half.w, |x, e| costs[x] = e);
         }
         let gain = (9 * u32::from(self.params.min_gain)) << SUB_BITS;
         let (camera_costs, shifts) = (best_cost, best_shift);
@@ -615,14 +629,26 @@ impl Outliner {
     ) {
         let hypotheses = flows.len.saturating_add(1);
         let row_len = area.w.saturating_add(2);
+        // The ring holds three rows for each of the MAX_FLOWS + 2 hypotheses at the scratch's
+        // side, and the area is at most that side wide, so every row below fits. Checked once
+        // here so that a broken scratch leaves no pixel labelled from an older labelling.
+        let needed = (hypotheses + 1) * 3 * row_len;
+        let fits =
+            ring.len() >= needed && rows.len() >= 4 * area.w && labels.len() >= area.w * area.h;
+        debug_assert!(fits, "labelling scratch too short for {area:?}");
+        if !fits {
+            labels.fill(0);
+            return;
+        }
         // One row of 3 x 3 sums needs rows y - 1, y and y + 1 of differences: each new row
         // of differences completes the sums of the row above it.
         for yy in area.y.saturating_sub(1)..=area.y.saturating_add(area.h) {
             let slot = yy % 3;
             for h in 0..=hypotheses {
                 let start = (h * 3 + slot) * row_len;
+                // Inside `needed`, checked above.
                 let Some(row) = ring.get_mut(start..start.saturating_add(row_len)) else {
-                    return;
+                    continue;
                 };
                 match h {
                     0 => camera_row(prev, next, camera, area, yy, row),
@@ -660,10 +686,10 @@ impl Outliner {
                 _ if h == hypotheses => Sums::Texture,
                 _ => Sums::Flow(h as u16),
             };
-            let rows = ring
-                .get(h * 3 * (w + 2)..(h + 1) * 3 * (w + 2))
-                .unwrap_or(&[]);
-            sums3(rows, w, |x, e| match kind {
+            // The ring's length was checked by `label`, the only caller.
+            let rows = ring.get(h * 3 * (w + 2)..(h + 1) * 3 * (w + 2));
+            debug_assert!(rows.is_some(), "ring rows of hypothesis {h}");
+            sums3(rows.unwrap_or(&[]), w, |x, e| match kind {
                 Sums::Camera => camera[x] = e,
                 Sums::Texture => texture[x] = e,
                 Sums::Flow(k) => {
@@ -730,19 +756,19 @@ impl Outliner {
                 nodes: candidate.nodes,
                 mean_flow: flows.flows.get(chosen).copied().unwrap_or_default(),
             };
-            // A full list keeps the largest outlines.
-            if found.is_full() {
-                if let Some(at) = found.iter().position(|(p, _)| *p < outline.pixels) {
+            // A full list keeps the largest outlines: it drops its smallest to make room, so
+            // the insertion below always has a free slot at a position <= its length.
+            let at = found.iter().position(|(p, _)| *p < outline.pixels);
+            let at = match (found.is_full(), at) {
+                (true, None) => continue,
+                (true, Some(at)) => {
                     found.pop();
-                    let _ = found.insert(at, (outline.pixels, b));
+                    at
                 }
-            } else {
-                let at = found
-                    .iter()
-                    .position(|(p, _)| *p < outline.pixels)
-                    .unwrap_or(found.len());
-                let _ = found.insert(at, (outline.pixels, b));
-            }
+                (false, at) => at.unwrap_or(found.len()),
+            };
+            let inserted = found.insert(at, (outline.pixels, b));
+            debug_assert!(inserted.is_ok(), "a free slot was made above");
         }
         // The largest first: a speck of chance matches on an object is covered by it, and one
         // beside it (where it uncovers or covers the ground) is far smaller than it.
@@ -774,6 +800,9 @@ enum Sums {
 /// column.
 fn sums3(rows: &[u16], w: usize, mut out: impl FnMut(usize, u16)) {
     let len = w + 2;
+    // Callers pass three rows of `w + 2` (checked where the ring and the camera's costs are
+    // laid out); on fewer, `out` is not called and the callers' rows keep their fill.
+    debug_assert!(rows.len() >= 3 * len, "sums3: {} < 3 x {len}", rows.len());
     let (Some(a), Some(b), Some(c)) = (
         rows.get(..len),
         rows.get(len..2 * len),

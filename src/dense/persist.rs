@@ -160,7 +160,9 @@ impl<const N: usize> BoxPersistence<N> {
     /// `boxes`, in their order, those whose region has moved in enough consecutive pairs;
     /// returns how many it kept. A box continues a run when it overlaps a box of the pair
     /// before, moved by that box's mean flow. Boxes past the first `N` are judged but not
-    /// remembered for the next pair; `count` beyond `boxes.len()` counts as `boxes.len()`.
+    /// remembered for the next pair; a reported region this pair missed is remembered after
+    /// this pair's boxes while fewer than `N` are; `count` beyond `boxes.len()` counts as
+    /// `boxes.len()`.
     pub fn confirm(&mut self, layout: &GridLayout, boxes: &mut [MotionBox], count: usize) -> usize {
         let (width, height) = (layout.width(), layout.height());
         let mut next: Vec<Remembered, N> = Vec::new();
@@ -184,13 +186,18 @@ impl<const N: usize> BoxPersistence<N> {
                 None if on_rim(layout, &found) => 0,
                 None => 1,
             };
-            // A full list drops the smallest boxes' runs: they come last.
-            let _ = next.push(Remembered {
+            // A full list drops the smallest boxes' runs: they come last. Only boxes past the
+            // first N find it full, as documented.
+            let remembered = next.push(Remembered {
                 place: found.in_next_frame(width, height),
                 run,
                 missed: false,
                 continued: false,
             });
+            debug_assert!(
+                remembered.is_ok() || read >= N,
+                "box {read} of {N} not remembered"
+            );
             if run >= self.min_pairs || self.min_pairs <= 1 {
                 if let Some(slot) = boxes.get_mut(kept) {
                     *slot = found;
@@ -202,11 +209,16 @@ impl<const N: usize> BoxPersistence<N> {
         // for the next pair, where it is expected one more step of its flow further on.
         for before in &self.last {
             if before.reported(self.min_pairs) && !before.continued {
-                let _ = next.push(Remembered {
+                // Behind this pair's boxes, as room allows (see `confirm`'s documentation):
+                // a full list has N of this pair's boxes, which come first.
+                let carried = next.push(Remembered {
                     place: before.place.in_next_frame(width, height),
                     missed: true,
                     ..*before
                 });
+                if carried.is_err() {
+                    break;
+                }
             }
         }
         self.last = next;

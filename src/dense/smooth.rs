@@ -98,7 +98,10 @@ pub fn smooth_tracked(
     let mut smoothed = 0usize;
     for row in 0..layout.rows() {
         let start = row.saturating_mul(cols);
-        let measured = nodes.get(start..start.saturating_add(cols)).unwrap_or(&[]);
+        // `nodes` was cut to the layout's rows x cols above: every row is inside it.
+        let measured = nodes.get(start..start.saturating_add(cols));
+        debug_assert!(measured.is_some(), "row {row} of {}", layout.rows());
+        let measured = measured.unwrap_or(&[]);
         for (kept, node) in current.iter_mut().zip(measured) {
             *kept = node.flow;
         }

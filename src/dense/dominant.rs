@@ -79,7 +79,8 @@ impl DominantMotion {
 
     /// Fits the dominant motion to the measured nodes of `nodes` (see the module
     /// documentation). Filled and invalid nodes are ignored; without any measured node the
-    /// result is [`DominantMotion::ZERO`].
+    /// result is [`DominantMotion::ZERO`]. A node slice shorter than the layout is refused
+    /// ([`DenseError::NodesTooShort`]): its missing rows would read as unmeasured.
     ///
     /// ```
     /// use kestrel::dense::dominant::{DominantMotion, FitParams};
@@ -95,6 +96,8 @@ impl DominantMotion {
     /// assert_eq!((fit.measured, fit.inliers), (64, 62));
     /// let (dx, dy) = fit.motion.predict(20.0, 12.0);
     /// assert!((dx - 1.5).abs() < 1e-3 && dy.abs() < 1e-3);
+    /// let short = DominantMotion::fit(&layout, &nodes[..63], &FitParams::default());
+    /// assert_eq!(short.unwrap_err(), kestrel::dense::DenseError::NodesTooShort);
     /// ```
     pub fn fit(
         layout: &GridLayout,
@@ -102,6 +105,9 @@ impl DominantMotion {
         params: &FitParams,
     ) -> Result<DominantFit, DenseError> {
         params.check()?;
+        if nodes.len() < layout.len() {
+            return Err(DenseError::NodesTooShort);
+        }
         let nodes = Measured::new(layout, nodes);
         let measured = nodes.iter().count();
         if measured == 0 {
@@ -247,6 +253,7 @@ impl<'a> Measured<'a> {
             origin: ((w - 1.0) * 0.5, (h - 1.0) * 0.5),
             scale: (w.max(h) * 0.5).max(1.0),
         };
+        // The shorter of the two lengths: the range is always inside `nodes`.
         let len = layout.len().min(nodes.len());
         Self {
             layout,

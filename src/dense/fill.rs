@@ -9,6 +9,7 @@
 //! not blend an object's flow with the background's at its border.
 
 use super::grid::{GridLayout, GridNode, NodeStatus, NEIGHBOURS};
+use super::DenseError;
 use crate::q16::{Point, Q16};
 
 /// Known neighbours a node needs to be filled: one alone would copy a possibly wrong value.
@@ -18,22 +19,37 @@ pub const MIN_SOURCES: usize = 2;
 /// nodes were filled. Filled nodes get [`NodeStatus::Filled`] and the pass number in
 /// [`GridNode::fill_pass`]; nodes already filled count as earlier passes.
 ///
+/// # Errors
+///
+/// [`DenseError::NodesTooShort`] when `nodes` is shorter than the layout; no node is changed.
+/// A shorter slice would lose the neighbours of its last row and fill it differently.
+///
 /// ```
 /// use kestrel::dense::fill::fill_invalid;
 /// use kestrel::dense::grid::{GridLayout, GridNode, NodeStatus};
+/// use kestrel::dense::DenseError;
 /// use kestrel::Point;
 ///
 /// // A 3 x 3 grid: the centre is unknown, its neighbours moved 2 px right.
 /// let layout = GridLayout::new(24, 24, 8).unwrap();
 /// let mut nodes = [GridNode::tracked(Point::from_f32(2.0, 0.0)); 9];
 /// nodes[4] = GridNode::invalid(NodeStatus::LowTexture);
-/// assert_eq!(fill_invalid(&layout, &mut nodes, 2), 1);
+/// assert_eq!(fill_invalid(&layout, &mut nodes, 2), Ok(1));
 /// assert_eq!(nodes[4].status, NodeStatus::Filled);
 /// assert_eq!(nodes[4].flow.to_f32(), (2.0, 0.0));
+/// // A slice shorter than the layout is refused, untouched.
+/// let mut short = [GridNode::invalid(NodeStatus::LowTexture); 8];
+/// assert_eq!(fill_invalid(&layout, &mut short, 2), Err(DenseError::NodesTooShort));
+/// assert!(short.iter().all(|n| n.status == NodeStatus::LowTexture));
 /// ```
-pub fn fill_invalid(layout: &GridLayout, nodes: &mut [GridNode], passes: u8) -> usize {
-    let len = layout.len().min(nodes.len());
-    let nodes = nodes.get_mut(..len).unwrap_or(&mut []);
+pub fn fill_invalid(
+    layout: &GridLayout,
+    nodes: &mut [GridNode],
+    passes: u8,
+) -> Result<usize, DenseError> {
+    let nodes = nodes
+        .get_mut(..layout.len())
+        .ok_or(DenseError::NodesTooShort)?;
     // Nodes filled by an earlier call count as earlier passes.
     let done = nodes.iter().map(|n| n.fill_pass).max().unwrap_or(0);
     let mut filled = 0usize;
@@ -60,7 +76,7 @@ pub fn fill_invalid(layout: &GridLayout, nodes: &mut [GridNode], passes: u8) -> 
         }
         filled = filled.saturating_add(filled_now);
     }
-    filled
+    Ok(filled)
 }
 
 /// The component-wise median of the known neighbours of node `index`, counting filled nodes
@@ -123,11 +139,11 @@ mod tests {
         for i in [0, 1, 5, 6] {
             nodes[i] = node(1.0, 0.0);
         }
-        assert_eq!(fill_invalid(&layout, &mut nodes, 1), 2);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 1), Ok(2));
         assert_eq!((nodes[2].fill_pass, nodes[7].fill_pass), (1, 1));
         assert_eq!(nodes[3].status, NodeStatus::Lost);
         // A later call continues where the first stopped: pass 2, then pass 3.
-        assert_eq!(fill_invalid(&layout, &mut nodes, 5), 4);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 5), Ok(4));
         assert_eq!((nodes[3].fill_pass, nodes[9].fill_pass), (2, 3));
         assert_eq!(nodes[9].flow.to_f32(), (1.0, 0.0));
     }
@@ -136,7 +152,7 @@ mod tests {
     fn a_lone_neighbour_is_not_copied() {
         let layout = GridLayout::new(8, 4, 4).unwrap();
         let mut nodes = [node(1.0, 0.0), GridNode::EMPTY];
-        assert_eq!(fill_invalid(&layout, &mut nodes, 3), 0);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 3), Ok(0));
     }
 
     #[test]
@@ -145,7 +161,7 @@ mod tests {
         let mut nodes = [node(1.0, 1.0); 9];
         nodes[0] = node(9.0, -9.0);
         nodes[4] = GridNode::invalid(NodeStatus::Residual);
-        fill_invalid(&layout, &mut nodes, 1);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 1), Ok(1));
         assert_eq!(nodes[4].flow.to_f32(), (1.0, 1.0));
     }
 
@@ -159,7 +175,7 @@ mod tests {
             GridNode::EMPTY,
             node(4.0, 0.0),
         ];
-        assert_eq!(fill_invalid(&layout, &mut nodes, 3), 0);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 3), Ok(0));
         let layout = GridLayout::new(32, 16, 8).unwrap();
         let mut nodes = [
             node(2.0, 0.0),
@@ -171,7 +187,7 @@ mod tests {
             node(4.0, 0.0),
             node(4.0, 0.0),
         ];
-        assert_eq!(fill_invalid(&layout, &mut nodes, 1), 2);
+        assert_eq!(fill_invalid(&layout, &mut nodes, 1), Ok(2));
         assert_eq!(nodes[1].flow.to_f32(), (2.0, 0.0));
         assert_eq!(nodes[2].flow.to_f32(), (4.0, 0.0));
     }

@@ -553,6 +553,8 @@ impl DenseFlow {
     /// [`grid_len`] long; entries beyond it are left alone), then fills invalid nodes.
     ///
     /// `scratch` is LK's, [`scratch_len`]`(params.lk.window)` values. See the module example.
+    /// On an error raised while tracking, every node of the grid is reset to
+    /// [`GridNode::EMPTY`]: no node is left from the previous frame beside this one's.
     pub fn compute(
         &self,
         prev: &Pyramid<'_>,
@@ -648,13 +650,30 @@ impl DenseFlow {
     ) -> Result<DenseSummary, DenseError> {
         let layout = self.check(prev, next, nodes.len(), scratch.len())?;
         let mut tracked = 0usize;
+        let mut failed = None;
         for (index, node) in nodes.iter_mut().take(layout.len()).enumerate() {
             let (col, row) = layout.node(index);
             let centre = layout.centre(col, row);
-            *node = self.track_node(prev, next, centre, predict, scratch)?;
+            match self.track_node(prev, next, centre, predict, scratch) {
+                Ok(tracked_node) => *node = tracked_node,
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
+            }
             tracked = tracked.saturating_add(usize::from(node.is_valid()));
         }
-        let filled = fill_invalid(&layout, nodes, self.params.fill_passes);
+        if let Some(e) = failed {
+            // Nodes of this frame before the error beside the last frame's after it would
+            // read as one field: none is kept.
+            nodes
+                .iter_mut()
+                .take(layout.len())
+                .for_each(|n| *n = GridNode::EMPTY);
+            return Err(e);
+        }
+        // `check` refused a node slice shorter than the layout.
+        let filled = fill_invalid(&layout, nodes, self.params.fill_passes)?;
         Ok(DenseSummary {
             layout,
             tracked,

@@ -164,11 +164,14 @@ impl<'a> ImageView<'a> {
         if y >= self.height {
             return &[];
         }
-        // y < height and the geometry was checked: neither operation can overflow, and a
-        // failure gives the empty row rather than a panic.
+        // y < height and the geometry was checked when the view was made (the data holds
+        // height - 1 strides and a width): neither operation can overflow and the range is
+        // inside the data. A failure would give the empty row rather than a panic.
         let start = y.saturating_mul(self.stride);
         let end = start.saturating_add(self.width);
-        self.data.get(start..end).unwrap_or(&[])
+        let row = self.data.get(start..end);
+        debug_assert!(row.is_some(), "row {y} outside {} bytes", self.data.len());
+        row.unwrap_or(&[])
     }
 
     /// The pixels of the `cols` x `rows` block whose top-left pixel is (`x`, `y`), from that

@@ -151,7 +151,12 @@ impl Fast {
     ) {
         let scored = area.grow_one(image.width(), image.height(), BORDER);
         let w = scored.width;
-        let Some(ring) = scratch.get_mut(..3 * w) else {
+        // `detect` checked the scratch against scratch_len, three rows of the frame's width,
+        // and the scored area is inside the frame. Were it short, nothing is offered and
+        // `detect` reports no corner rather than corners ranked from stale rows.
+        let ring = scratch.get_mut(..3 * w);
+        debug_assert!(ring.is_some(), "ring of 3 x {w} in a shorter scratch");
+        let Some(ring) = ring else {
             return;
         };
         let (above, rest) = ring.split_at_mut(w);
@@ -208,7 +213,10 @@ fn suppress_row(
 ) {
     let at = |row: &[u8], i: Option<usize>| i.and_then(|i| row.get(i)).copied().unwrap_or(0);
     let first = area.x - x0;
-    let Some(candidates) = middle.get(first..area.right() - x0) else {
+    // The rows span the scored area, which is `area` grown by one: `area` is inside them.
+    let candidates = middle.get(first..area.right() - x0);
+    debug_assert!(candidates.is_some(), "area {area:?} outside the ranked row");
+    let Some(candidates) = candidates else {
         return;
     };
     for (i, &rank) in (first..).zip(candidates).filter(|&(_, &rank)| rank > 0) {
@@ -314,6 +322,8 @@ impl<'a> Rows<'a> {
         let (Some(top), Some(mid), Some(bottom), Some(around)) =
             (top.get(x0..x1), mid.get(x0..x1), bottom.get(x0..x1), around)
         else {
+            // Rows off the frame are empty (see `around`), and a pixel whose circle leaves
+            // the frame is no corner: the row has none. Not a fallback.
             return;
         };
         for (i, ((&c, &p0), &p8)) in mid.iter().zip(top).zip(bottom).enumerate() {

@@ -361,6 +361,7 @@ impl ExclusionMask {
             self.cell_span(px.saturating_sub(r), px.saturating_add(r), self.width),
             self.cell_span(py.saturating_sub(r), py.saturating_add(r), self.height),
         ) else {
+            // The square is wholly off the frame: there is nothing to exclude.
             return;
         };
         // c1 < 64, so the shifts stay in range.

@@ -160,8 +160,12 @@ impl ShiTomasi {
             mask,
         };
         scan.run(scratch, &mut best);
+        // `best` fills `out` from its start and counts what it wrote, and `above_quality` keeps
+        // a prefix of those: both ranges are inside `out`.
         let found = best.finish();
+        debug_assert!(found <= out.len(), "{found} corners in {} slots", out.len());
         let kept = above_quality(out.get(..found).unwrap_or(&[]), quality);
+        debug_assert!(kept <= found);
         let spaced = space_out(
             out.get_mut(..kept).unwrap_or(&mut []),
             self.min_distance,
@@ -246,8 +250,14 @@ fn space_out(
         .max(image.width().div_ceil(DISTANCE_GRID))
         .max(image.height().div_ceil(DISTANCE_GRID));
     let cols = image.width().div_ceil(cell);
-    // The caller checked the scratch against scratch_len, so the split succeeds.
-    let Some((heads, links)) = scratch.split_at_mut_checked(DISTANCE_GRID * DISTANCE_GRID) else {
+    // The caller checked the scratch against scratch_len, so the split succeeds; were it to
+    // fail, no corner is reported rather than corners too close together.
+    let split = scratch.split_at_mut_checked(DISTANCE_GRID * DISTANCE_GRID);
+    debug_assert!(
+        split.is_some(),
+        "space_out: scratch shorter than its chain heads"
+    );
+    let Some((heads, links)) = split else {
         return 0;
     };
     heads.fill(-1);
@@ -338,7 +348,16 @@ impl Scan<'_, '_> {
         let (sw, cw) = (scored.width, scored.width + 2 * self.reach);
         // The tensor columns reach `reach` px beyond the scored columns on each side.
         let x0 = scored.x - self.reach;
-        let Some((sums, ring)) = split_scratch(scratch, cw, sw) else {
+        // cw + sw <= 2 x the frame's width, and `detect` checked the scratch against
+        // scratch_len (6 words a column): the split succeeds. Were it to fail, nothing is
+        // offered and `detect` reports no corner.
+        let len = scratch.len();
+        let split = split_scratch(scratch, cw, sw);
+        debug_assert!(
+            split.is_some(),
+            "scan scratch of {len} for 3 x ({cw} + {sw})"
+        );
+        let Some((sums, ring)) = split else {
             return;
         };
         let (mut sums, [mut above, mut middle, mut below]) = (sums, ring);
@@ -448,7 +467,15 @@ impl ColumnSums<'_> {
     /// Adds the gradient products of row `y`, columns `x0..x0 + len`, to the sums, or
     /// subtracts them when `SUBTRACT` (the row leaving the block).
     fn add_row<const SUBTRACT: bool>(&mut self, image: &ImageView<'_>, y: usize, x0: usize) {
-        let Some(rows) = SobelRows::around(image, y, x0, self.0.len() / 3) else {
+        // The scored area was clipped to `reach + 1` px inside the frame, so the block's rows
+        // and a pixel around them are in it. A missing row would leave the sums unbalanced;
+        // it cannot be, by that clipping.
+        let rows = SobelRows::around(image, y, x0, self.0.len() / 3);
+        debug_assert!(
+            rows.is_some(),
+            "Sobel rows around ({x0}, {y}) leave the frame"
+        );
+        let Some(rows) = rows else {
             return;
         };
         for ((gx, gy), column) in rows.gradients().zip(self.0.chunks_exact_mut(3)) {

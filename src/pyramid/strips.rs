@@ -32,7 +32,10 @@ fn strips(rows: &[&[u8]; 5], columns: core::ops::Range<usize>, out_row: &mut [u8
         // Source columns 2*x0-2 ..= 2*(x1-1)+2.
         let count = 2 * (x1 - x0) + 3;
         vertical_sums(rows, 2 * x0 as isize - 2, &mut column_sums[..count]);
-        let outputs = out_row.get_mut(x0..x1).unwrap_or(&mut []);
+        // `columns` lies within the output row (the callers pass 0..w of a row of w).
+        let outputs = out_row.get_mut(x0..x1);
+        debug_assert!(outputs.is_some(), "columns {x0}..{x1} of {}", out_row.len());
+        let outputs = outputs.unwrap_or(&mut []);
         horizontal_filter(&column_sums[..count], outputs);
         x0 = x1;
     }
@@ -52,11 +55,22 @@ fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
     }
     // Interior: five equal-length runs, vectorised.
     let start = (first + lo as isize).max(0) as usize;
-    let run = |k: usize| rows[k].get(start..start + hi - lo).unwrap_or(&[]);
+    // start + hi - lo = first + hi <= width by the clamp above, and the five source rows are
+    // one width: every run is inside its row.
+    let run = |k: usize| {
+        let run = rows[k].get(start..start + hi - lo);
+        debug_assert!(
+            run.is_some(),
+            "source row {k} shorter than {}",
+            start + hi - lo
+        );
+        run.unwrap_or(&[])
+    };
     let taps = run(0)
         .iter()
         .zip(run(1))
         .zip(run(2).iter().zip(run(3)).zip(run(4)));
+    // lo <= hi <= sums.len() by the clamps above.
     let interior = sums.get_mut(lo..hi).unwrap_or(&mut []);
     for (s, ((&a, &b), ((&c, &d), &e))) in interior.iter_mut().zip(taps) {
         let [a, b, c, d, e] = [a, b, c, d, e].map(u16::from);
@@ -68,6 +82,8 @@ fn vertical_sums(rows: &[&[u8]; 5], first: isize, sums: &mut [u16]) {
 ///
 /// Each output shares three sums with the next; they are carried, so each output reads two.
 fn horizontal_filter(sums: &[u16], out: &mut [u8]) {
+    // A strip sums at least 2 x 1 + 3 = 5 source columns.
+    debug_assert!(sums.len() >= 3, "{} vertical sums", sums.len());
     let (Some(&[a, b, c]), Some(rest)) = (sums.get(..3), sums.get(3..)) else {
         return;
     };

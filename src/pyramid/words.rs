@@ -57,6 +57,13 @@ fn word_row(rows: &[&[u8]; 5], out: &mut [u8]) {
     let (Some((mut even, mut odd)), Some((mut next_even, mut next_odd))) =
         (lanes.next(), lanes.next())
     else {
+        // Rows of fewer than two words have no inner pairs: the caller passes an empty
+        // output then (`inner` is empty), so there is nothing to write.
+        debug_assert!(
+            out.is_empty(),
+            "{} outputs from rows under two words",
+            out.len()
+        );
         return;
     };
     for (pair, (after_even, after_odd)) in out.chunks_exact_mut(2).zip(lanes) {

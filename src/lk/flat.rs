@@ -18,8 +18,8 @@
 use super::correlation::Correlations;
 use super::template::TemplateSums;
 use super::window::{
-    bilinear, gather, mask_outside, rescale, scharr_smooth, Layout, Loops, TemplateBuffers,
-    TemplateOut, WindowOrigin,
+    bilinear, gather, in_layout, mask_outside, rescale, scharr_smooth, Layout, Loops,
+    TemplateBuffers, TemplateOut, WindowOrigin,
 };
 use crate::frame::ImageView;
 
@@ -77,7 +77,8 @@ impl Loops for Flat {
         // template's zero padding drops the columns past the window from the products.
         let mut c = Correlations::default();
         for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
-            let run = source.get(offset..offset + win * p).unwrap_or(&[]);
+            // offset + win p <= (win + 1) p + 1 <= source_len.
+            let run = in_layout(source, offset..offset + win * p);
             let plain = layout.rows(run).flatten().map(|&v| i64::from(v)).sum();
             let [si, sx, sy] = correlate_run(run, t);
             *sums = [plain, si, sx, sy];
@@ -152,7 +153,8 @@ fn sample(
     }
     let n = rows * pitch;
     let w = origin.w.map(i32::from);
-    let run = |k: usize| source.get(k..k + n).unwrap_or(&[]);
+    // k + n <= (rows + 1) pitch + 1, the gathered rows and their slack, within source_len.
+    let run = |k: usize| in_layout(source, k..k + n);
     // Four equal-length shifted runs (pixel, right, below, below-right) vectorise cleanly.
     let quads = run(0)
         .iter()
@@ -176,7 +178,8 @@ fn inner(patch: &[i16], layout: &Layout, out: &mut [i16]) {
 fn scharr(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
     let (n, p) = (layout.window_len(), layout.pitch);
     // Output k is the template pixel whose patch neighbourhood starts at patch[k].
-    let run = |k: usize| patch.get(k..k + n).unwrap_or(&[]);
+    // k + n <= 2 p + 2 + win p = patch_len.
+    let run = |k: usize| in_layout(patch, k..k + n);
     let w = |v: &i16| i32::from(*v);
     let (ul, uc, ur) = (run(0), run(1), run(2));
     let (ml, mr) = (run(p), run(p + 2));

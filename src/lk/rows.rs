@@ -28,8 +28,8 @@
 use super::correlation::Correlations;
 use super::template::{Correction, TemplateSums};
 use super::window::{
-    bilinear, gather, mask_outside, rescale, scharr_smooth, Layout, Loops, TemplateBuffers,
-    TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
+    bilinear, gather, in_layout, in_layout_mut, mask_outside, rescale, scharr_smooth, Layout,
+    Loops, TemplateBuffers, TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
 use crate::dsp::smlad;
 use crate::frame::ImageView;
@@ -74,14 +74,16 @@ impl Loops for Rows {
                 // first: one set of general rows serves them all.
                 _ => {
                     gather(frame, origin, side, side, source);
-                    let px = source.get(..side * side).unwrap_or(&[]);
+                    // (win + 2)^2 <= source_len = (win + 3)^2.
+                    let px = in_layout(source, 0..side * side);
                     any_pixel_template(px, side, layout, out);
                 }
             }
         } else {
             let n = side + 1;
             gather(frame, origin, n, n, source);
-            let px = source.get(..n * n).unwrap_or(&[]);
+            // n^2 = (win + 3)^2 = source_len.
+            let px = in_layout(source, 0..n * n);
             sample_patch(&w, px, n, layout, patch, intensity);
             derivatives(patch, layout, dx, dy);
         }
@@ -120,7 +122,8 @@ impl Loops for Rows {
                 &w,
                 top,
                 bottom,
-                out.get_mut(..layout.win).unwrap_or(&mut []),
+                // Rows of `pitch` = `win + 1` values.
+                in_layout_mut(out, 0..layout.win),
             );
         }
         clear_padding(layout, j);
@@ -138,7 +141,8 @@ impl Loops for Rows {
         correction: Correction,
     ) -> u64 {
         let p = layout.pitch;
-        let block = source.get(..(layout.win + 1) * p + 1).unwrap_or(&[]);
+        // (win + 1)^2 + 1 <= source_len = (win + 3)^2.
+        let block = in_layout(source, 0..(layout.win + 1) * p + 1);
         let [w00, w01, w10, w11] = origin.w.map(|w| u32::from(w as u16));
         let weights = (w00 | (w01 << 16), w10 | (w11 << 16));
         let rows = row_pairs(block, p).zip(intensity.chunks_exact(p));
@@ -148,7 +152,7 @@ impl Loops for Rows {
                     weights,
                     top,
                     bottom,
-                    i_row.get(..layout.win).unwrap_or(&[]),
+                    in_layout(i_row, 0..layout.win),
                     correction,
                 )
             })
@@ -192,7 +196,8 @@ fn next_block<'s>(
     if let Some(slack) = source.get_mut(n * n) {
         *slack = 0;
     }
-    source.get(..n * n + 1).unwrap_or(&[])
+    // (win + 1)^2 + 1 <= source_len = (win + 3)^2.
+    in_layout(source, 0..n * n + 1)
 }
 
 /// Zeroes the padding column of a window buffer.
@@ -207,7 +212,8 @@ fn clear_padding(layout: &Layout, buf: &mut [i16]) {
 /// The row pairs of a source square: each row with the one below.
 #[inline(always)]
 fn row_pairs<P>(px: &[P], stride: usize) -> impl Iterator<Item = (&[P], &[P])> {
-    let below = px.get(stride..).unwrap_or(&[]);
+    // Every square the callers pass has at least two rows.
+    let below = in_layout(px, stride..px.len());
     px.chunks(stride.max(1)).zip(below.chunks(stride.max(1)))
 }
 
@@ -226,7 +232,7 @@ fn sample_patch(
     let rows = row_pairs(px, stride).zip(patch.chunks_exact_mut(pp));
     let mut inner = intensity
         .chunks_exact_mut(layout.pitch)
-        .map(|row| row.get_mut(..win).unwrap_or(&mut []));
+        .map(|row| in_layout_mut(row, 0..win));
     for (r, ((top, bottom), out)) in rows.enumerate() {
         match if r == 0 { None } else { inner.next() } {
             Some(inner) => interpolate_twice(w, top, bottom, out, inner),
@@ -243,7 +249,13 @@ fn sample_patch(
 #[inline(never)]
 fn interpolate(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut [i16]) {
     let w = *w;
+    // Rows come from `chunks`, which yields no empty row: the split succeeds.
     let (Some((&a, top)), Some((&c, bottom))) = (top.split_first(), bottom.split_first()) else {
+        debug_assert!(
+            out.is_empty(),
+            "an empty source row for {} samples",
+            out.len()
+        );
         return;
     };
     let (mut a, mut c) = (a.into(), c.into());
@@ -272,12 +284,21 @@ fn interpolate_twice(
     let (Some((first, rest)), Some(&[a, b]), Some(&[c, d])) =
         (out.split_first_mut(), top.get(..2), bottom.get(..2))
     else {
+        // Patch rows of `win + 2` samples from source rows of `win + 3`: never this short.
+        debug_assert!(
+            top.len() >= 2 && bottom.len() >= 2,
+            "short rows for a patch row"
+        );
         return;
     };
     *first = bilinear(w, a.into(), b.into(), c.into(), d.into());
     let (mut a, mut c) = (b.into(), d.into());
     let (middle, last) = rest.split_at_mut(n.min(rest.len()));
-    let (top, bottom) = (top.get(2..).unwrap_or(&[]), bottom.get(2..).unwrap_or(&[]));
+    // Both are at least two long, checked above.
+    let (top, bottom) = (
+        in_layout(top, 2..top.len()),
+        in_layout(bottom, 2..bottom.len()),
+    );
     for (k, (o, i)) in middle.iter_mut().zip(inner.iter_mut()).enumerate() {
         let (Some(&b), Some(&d)) = (top.get(k), bottom.get(k)) else {
             break;
@@ -304,7 +325,8 @@ fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correla
         sums: pixel_sums(block, layout).map(|plain| [plain, 0, 0, 0]),
     };
     for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
-        let run = block.get(offset..offset + n).unwrap_or(&[]);
+        // offset + n <= p + 1 + win p = the block's (win + 1) p + 1.
+        let run = in_layout(block, offset..offset + n);
         [sums[1], sums[2], sums[3]] = dot3(run, [t.intensity, t.dx, t.dy]);
     }
     c
@@ -316,7 +338,8 @@ fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correla
 /// `64^2 * 255 < 2^31`.
 fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
     let (p, win) = (layout.pitch, layout.win);
-    let square = block.get(..p * p).unwrap_or(&[]);
+    // The block is the (win + 1)-square, p = win + 1 apart, and a value of slack.
+    let square = in_layout(block, 0..p * p);
     // The block's total by pairs; its first and last columns by one load a row.
     let sum_of = |values: &[i16]| -> i32 {
         let (twos, tail) = pairs(values);
@@ -328,7 +351,7 @@ fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
         left += row.first().map_or(0, |&v| i32::from(v));
         right += row.last().map_or(0, |&v| i32::from(v));
     }
-    let row_sum = |r: usize| sum_of(square.get(r * p..(r + 1) * p).unwrap_or(&[]));
+    let row_sum = |r: usize| sum_of(in_layout(square, r * p..(r + 1) * p));
     let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
     let (top, bottom) = (row_sum(0), row_sum(win));
     let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
@@ -371,7 +394,8 @@ fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
     let mut total = [0i64; 3];
     for (k, a) in a.chunks(CORRELATION_CHUNK).enumerate() {
         let start = k * CORRELATION_CHUNK;
-        let part = b.map(|v| v.get(start..start + a.len()).unwrap_or(&[]));
+        // `a` is a window run and each `b` a window buffer: the same length.
+        let part = b.map(|v| in_layout(v, start..start + a.len()));
         for (t, s) in total.iter_mut().zip(dot3_chunk(a, part)) {
             *t += i64::from(s);
         }
@@ -418,7 +442,9 @@ fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i
         let [u, m, d] = [u, m, d].map(i32::from);
         (scharr_smooth(u, m, d), d - u)
     });
+    // Patch rows hold `win + 2` >= 3 values.
     let (Some((mut v0, mut h0)), Some((mut v1, mut h1))) = (columns.next(), columns.next()) else {
+        debug_assert!(dx.is_empty(), "patch rows under two values");
         return;
     };
     for ((gx, gy), (v2, h2)) in dx.iter_mut().zip(dy.iter_mut()).zip(columns) {
@@ -473,7 +499,10 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
         buf.get_mut(start..start + W)?.try_into().ok()
     }
     for r in 0..W {
+        // `px` is the frame block of the `S`-square patch and the outputs are window buffers
+        // of `W` rows `pitch` >= `W` apart: every row below is there.
         let (Some(up), Some(mid), Some(down)) = (row(r), row(r + 1), row(r + 2)) else {
+            debug_assert!(px.is_empty(), "patch row {r} outside its block");
             return;
         };
         let (Some(i_row), Some(dx_row), Some(dy_row)) = (
@@ -481,6 +510,7 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
             out::<W>(dx, r * pitch),
             out::<W>(dy, r * pitch),
         ) else {
+            debug_assert!(intensity.is_empty(), "window row {r} outside its buffer");
             return;
         };
         let column = |k: usize| {
@@ -516,6 +546,8 @@ fn pixel_row(
     let (Some((mut v0, mut h0, _)), Some((mut v1, mut h1, mut m1))) =
         (columns.next(), columns.next())
     else {
+        // Patch rows hold `win + 2` >= 3 pixels.
+        debug_assert!(intensity.is_empty(), "pixel rows under two values");
         return;
     };
     let outputs = intensity.iter_mut().zip(dx.iter_mut().zip(dy.iter_mut()));

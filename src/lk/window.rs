@@ -19,6 +19,30 @@
 use super::correlation::Correlations;
 use super::template::{abs_residual_of, Correction, TemplateSums};
 use crate::frame::ImageView;
+use core::ops::Range;
+
+/// `buf[range]`, for a range the buffer layout puts inside `buf`.
+///
+/// Every LK buffer is cut once from a scratch checked against [`super::scratch_len`], to the
+/// lengths [`Layout`] gives, and the loops take only ranges those lengths cover: a range
+/// outside is a layout bug. Debug builds (the tests, fuzzing) stop on it; release builds read
+/// an empty run, which adds nothing to a sum and writes nothing, rather than panic. The check
+/// compiles away in release, so the hot loops cost what a plain `get` does.
+#[inline(always)]
+pub(crate) fn in_layout<T>(buf: &[T], range: Range<usize>) -> &[T] {
+    let run = buf.get(range.clone());
+    debug_assert!(run.is_some(), "{range:?} outside a buffer of {}", buf.len());
+    run.unwrap_or(&[])
+}
+
+/// [`in_layout`] for a buffer being written.
+#[inline(always)]
+pub(crate) fn in_layout_mut<T>(buf: &mut [T], range: Range<usize>) -> &mut [T] {
+    let len = buf.len();
+    let run = buf.get_mut(range.clone());
+    debug_assert!(run.is_some(), "{range:?} outside a buffer of {len}");
+    run.unwrap_or(&mut [])
+}
 
 /// Fractional bits of the bilinear weights.
 pub(crate) const WEIGHT_BITS: u32 = 14;
@@ -52,8 +76,9 @@ impl Layout {
     /// The window's values of each row of a window buffer, without the padding.
     pub(crate) fn rows<'b>(&self, buf: &'b [i16]) -> impl Iterator<Item = &'b [i16]> + 'b {
         let win = self.win;
+        // Rows of `pitch` >= `win + 1` values hold the window's `win`.
         buf.chunks_exact(self.pitch)
-            .map(move |row| row.get(..win).unwrap_or(&[]))
+            .map(move |row| in_layout(row, 0..win))
     }
 }
 
@@ -268,10 +293,17 @@ fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
 /// Copies rows of `N` pixels, `stride` apart in `block`, into `out` (`N` apart).
 fn copy_rows<const N: usize>(block: &[u8], stride: usize, out: &mut [i16]) {
     for (dst, src) in out.chunks_exact_mut(N).zip(block.chunks(stride)) {
+        // `block` is a frame block of `N`-pixel rows (its last row ends at its last pixel), so
+        // every chunk holds `N` pixels and every `out` chunk is `N` long.
         let (Ok(dst), Some(Ok(src))) = (
             <&mut [i16; N]>::try_from(dst),
             src.get(..N).map(<&[u8; N]>::try_from),
         ) else {
+            debug_assert!(
+                src.len() >= N,
+                "a block row of {} pixels, {N} wanted",
+                src.len()
+            );
             return;
         };
         *dst = src.map(i16::from);

@@ -381,6 +381,8 @@ impl Ransac {
                     *slot = Pair::of(c);
                 }
             }
+            // A model needs at most four pairs (`min_samples`), the sample's length.
+            debug_assert!(size <= sample.len(), "{size} samples in {}", sample.len());
             let sample = sample.get(..size).unwrap_or(&[]);
             let Ok(model) = model::fit_pairs(kind, sample.iter().copied()) else {
                 continue;

@@ -56,13 +56,19 @@ pub(super) fn new_corners<'b>(
             buffers.candidates,
         ),
     }?;
+    // Each count below is of a prefix of the slice it came from (the detectors write the
+    // candidates from the start, spacing and the grid keep a prefix of theirs), so every
+    // range is inside its slice.
+    debug_assert!(found <= buffers.candidates.len());
     let found = buffers.candidates.get_mut(..found).unwrap_or(&mut []);
     let spaced = space_out(found, &mut mask, radius);
+    debug_assert!(spaced <= found.len());
     let spaced = found.get_mut(..spaced).unwrap_or(&mut []);
     for corner in spaced.iter_mut() {
         corner.position = at_full_resolution(corner.position, level);
     }
     let selected = config.grid.select(width, height, spaced, live)?;
+    debug_assert!(selected <= spaced.len());
     Ok(spaced.get(..selected).unwrap_or(&[]))
 }
 

@@ -56,6 +56,8 @@ impl Turn {
     /// The frame's turn from the steps `from -> to` of its tracked points (the first
     /// [`STEPS`]); [`Turn::NONE`] when too few lie far enough from the middle to say.
     pub fn of(steps: &[(Point, Point)]) -> Self {
+        // The first STEPS: the medians below gather at most that many values.
+        let steps = steps.chunks(STEPS).next().unwrap_or(&[]);
         // The middle of the points before, and where the median step takes it: both robust
         // to the steps of anything that moves its own way.
         let (Some(from), Some(shift)) = (
@@ -125,8 +127,12 @@ impl Turn {
                 continue;
             }
             // q / p = q conj(p) / |p|^2.
-            let _ = re.push(q16((qx * px + qy * py) / norm));
-            let _ = im.push(q16((qy * px - qx * py) / norm));
+            // At most STEPS steps (cut in `of`, the only caller): both have room.
+            let pushed = (
+                re.push(q16((qx * px + qy * py) / norm)),
+                im.push(q16((qy * px - qx * py) / norm)),
+            );
+            debug_assert!(pushed.0.is_ok() && pushed.1.is_ok(), "over {STEPS} steps");
         }
         if re.len() < MIN_ESTIMATES {
             return Self::NONE;
@@ -174,13 +180,14 @@ impl Turn {
     }
 }
 
-/// The coordinate-wise median of `points`, px; `None` when there are none.
+/// The coordinate-wise median of `points` (at most [`STEPS`]), px; `None` when there are none.
 fn median_point(points: impl Iterator<Item = Point>) -> Option<(f32, f32)> {
     let mut xs: heapless::Vec<i32, STEPS> = heapless::Vec::new();
     let mut ys: heapless::Vec<i32, STEPS> = heapless::Vec::new();
     for p in points {
-        let _ = xs.push(p.x.to_bits());
-        let _ = ys.push(p.y.to_bits());
+        // One point per step, and `of` keeps at most STEPS steps: both have room.
+        let pushed = (xs.push(p.x.to_bits()), ys.push(p.y.to_bits()));
+        debug_assert!(pushed.0.is_ok() && pushed.1.is_ok(), "over {STEPS} points");
     }
     Some((from_q16(median(&mut xs)?), from_q16(median(&mut ys)?)))
 }

@@ -136,16 +136,18 @@ fn estimate(tracks: &[Track], params: RansacParams) -> (EgoMotion, Vec<bool>) {
     (motion, inliers)
 }
 
-/// Frame size, tracks (three times as many at four times the pixels) and the budget for the
-/// median corner error, px.
-const TRACKS: [((u16, u16), usize, f64); 2] = [((160, 120), 100, 0.2), ((320, 240), 300, 0.1)];
+/// Frame size, tracks (three times as many at four times the pixels), the budget for the
+/// median corner error and for the worst frame pair's largest corner error, px. Measured:
+/// medians 0.105-0.119 and 0.062-0.064 px, worst 0.362-0.404 and 0.197-0.242 px.
+const TRACKS: [((u16, u16), usize, f64, f64); 2] =
+    [((160, 120), 100, 0.2, 0.8), ((320, 240), 300, 0.1, 0.5)];
 
 /// The corner error of one frame pair is the mean distance between the estimated and the true
 /// images of the four frame corners (the largest of the four is printed too); the budget holds
 /// for its median over 25 seeded frame pairs per camera path.
 #[test]
 fn homography_moves_the_corners_within_budget() {
-    for (size, count, budget) in TRACKS {
+    for (size, count, budget, worst_budget) in TRACKS {
         let mut report = format!("{}x{}, {count} tracks:", size.0, size.1);
         for path in PATHS {
             let mut mean_errors = Vec::new();
@@ -174,7 +176,10 @@ fn homography_moves_the_corners_within_budget() {
                  (largest of the four corners: median {max:.3}, worst {worst:.3})"
             );
             assert!(mean < budget, "{path:?} at {size:?}: {mean:.3} px");
-            assert!(worst < 1.0, "{path:?} at {size:?}: worst {worst:.3} px");
+            assert!(
+                worst < worst_budget,
+                "{path:?} at {size:?}: worst {worst:.3} px"
+            );
         }
         println!("{report}");
     }
@@ -227,7 +232,8 @@ fn every_model_recovers_its_own_motion() {
         assert!(inliers[20..].iter().all(|&i| i) && inliers[..20].iter().all(|&i| !i));
         let (mean, max) = corner_error(&motion.model, &truth, size);
         println!("{kind:?}: exact motion recovered to {mean:.5} px (largest corner {max:.5})");
-        assert!(max < 2e-3, "{kind:?}: {max}");
+        // Measured at most 4e-5 px: f32 rounding.
+        assert!(max < 1e-4, "{kind:?}: {max}");
         // The fit's residual is rounding only.
         assert!(
             motion.rms_residual < 1e-3 && motion.quality >= 180,
@@ -426,7 +432,8 @@ fn derotation_removes_pure_rotation() {
             }
         }
         println!("distortion {k:?}: largest derotated flow under pure rotation {worst:.5} px");
-        assert!(worst < 2e-3, "{worst}");
+        // Measured 3e-5 and 5e-5 px.
+        assert!(worst < 1e-4, "{worst}");
     }
 }
 
@@ -477,7 +484,8 @@ fn integrated_flow_equals_integrated_gyro_under_pure_rotation() {
                 if g != 0.0 {
                     let relative = (m - g).abs() / g.abs();
                     line += &format!(" ({:.2}%)", relative * 100.0);
-                    assert!(relative < 0.01, "{line}");
+                    // Measured at most 0.41 %.
+                    assert!(relative < 0.008, "{line}");
                 } else {
                     assert!(m.abs() < 1e-3, "{line}");
                 }

@@ -218,21 +218,34 @@ fn random_shifts(seed: u64) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn assert_accurate(errors: &Errors, label: &str) {
+/// The median error's bound for whole-pixel shifts and between pixels: measured 0.026-0.041 px
+/// (q16 and f32 alike), so a regression to twice that shows.
+const SHIFT_MEDIAN: f32 = 0.06;
+/// For the small warps: measured 0.060-0.066 px a seed.
+const WARP_MEDIAN: f32 = 0.1;
+/// The q16 tracker against the f32 reference, median: measured 0.0001-0.0002 px.
+const BETWEEN_MEDIAN: f32 = 0.0005;
+/// Textured points inside both frames tracked: measured 99.4-100 % a seed.
+const TRACKED_SHARE: f32 = 0.98;
+
+fn assert_accurate(errors: &Errors, label: &str, within: f32) {
     errors.report(label);
-    assert!(median(&errors.q16) <= 0.1, "{label}: q16 median error");
+    assert!(median(&errors.q16) <= within, "{label}: q16 median error");
     assert!(
-        median(&errors.reference) <= 0.1,
+        median(&errors.reference) <= within,
         "{label}: f32 median error"
     );
-    assert!(median(&errors.between) <= 0.01, "{label}: q16 against f32");
+    assert!(
+        median(&errors.between) <= BETWEEN_MEDIAN,
+        "{label}: q16 against f32"
+    );
     // Textured points inside both frames: nearly all must be tracked.
     assert!(
-        errors.q16.len() as f32 >= 0.95 * errors.points as f32,
+        errors.q16.len() as f32 >= TRACKED_SHARE * errors.points as f32,
         "{label}: q16 tracked"
     );
     assert!(
-        errors.reference.len() as f32 >= 0.95 * errors.points as f32,
+        errors.reference.len() as f32 >= TRACKED_SHARE * errors.points as f32,
         "{label}: f32 tracked"
     );
 }
@@ -250,10 +263,14 @@ fn translations_up_to_20_px() {
             errors.report(&format!("seed {seed} shift ({dx:+.2}, {dy:+.2})"));
             per_seed.extend(errors);
         }
-        assert_accurate(&per_seed, &format!("seed {seed} translations"));
+        assert_accurate(
+            &per_seed,
+            &format!("seed {seed} translations"),
+            SHIFT_MEDIAN,
+        );
         all.extend(per_seed);
     }
-    assert_accurate(&all, "all translations");
+    assert_accurate(&all, "all translations", SHIFT_MEDIAN);
 }
 
 #[test]
@@ -284,10 +301,10 @@ fn small_rotation_zoom_and_perspective() {
             errors.report(&format!("seed {seed} {name}"));
             per_seed.extend(errors);
         }
-        assert_accurate(&per_seed, &format!("seed {seed} warps"));
+        assert_accurate(&per_seed, &format!("seed {seed} warps"), WARP_MEDIAN);
         all.extend(per_seed);
     }
-    assert_accurate(&all, "all warps");
+    assert_accurate(&all, "all warps", WARP_MEDIAN);
 }
 
 #[test]
@@ -317,14 +334,16 @@ fn gain_and_bias_between_frames() {
     robust.report("all lit, gain-bias");
     plain.report("all lit, plain");
     for (errors, name) in [(&robust.q16, "q16"), (&robust.reference, "f32")] {
+        // Measured 0 of 1685 points: a few in a thousand is a regression.
         let off = fraction_above(errors, 1.0);
         assert!(
-            off <= 0.02,
+            off <= 0.003,
             "gain-bias {name}: {:.2}% off by more than 1 px",
             100.0 * off
         );
     }
-    assert!(median(&robust.q16) <= 0.1 && median(&robust.between) <= 0.01);
+    // Measured 0.031 px and 0.0001 px.
+    assert!(median(&robust.q16) <= SHIFT_MEDIAN && median(&robust.between) <= BETWEEN_MEDIAN);
     // Without the illumination model the same points go wrong: a median error of pixels, most
     // points off by more than 1 px, many not even converging.
     for (plain, robust, name) in [
@@ -382,11 +401,16 @@ fn nearest_pixel_template_is_as_accurate() {
             nearest.extend(Errors::of(&trial, nearest_params));
         }
     }
-    assert_accurate(&at_point, "between pixels, template at the point");
+    assert_accurate(
+        &at_point,
+        "between pixels, template at the point",
+        SHIFT_MEDIAN,
+    );
     nearest.report("between pixels, template on the nearest pixel");
-    assert!(median(&nearest.q16) <= 0.1);
+    // Measured 0.044 px, and 0.020 px from the f32 reference at the point.
+    assert!(median(&nearest.q16) <= 0.09);
     assert!(median(&nearest.between) <= 0.03);
-    assert!(nearest.q16.len() as f32 >= 0.95 * nearest.points as f32);
+    assert!(nearest.q16.len() as f32 >= TRACKED_SHARE * nearest.points as f32);
     // Within noise of the default: the median error no more than 10 % above it.
     assert!(median(&nearest.q16) <= 1.1 * median(&at_point.q16));
     assert!(fraction_above(&nearest.q16, 1.0) <= fraction_above(&at_point.q16, 1.0) + 0.005);

@@ -106,10 +106,36 @@ pub enum Illumination {
 /// Where the template window sits in the previous frame at each pyramid level.
 ///
 /// ```
-/// use kestrel::lk::{LkParams, TemplatePlacement};
-/// let fast = LkParams { template: TemplatePlacement::NearestPixel, ..LkParams::default() };
-/// assert_eq!(LkParams::default().template, TemplatePlacement::AtPoint);
-/// assert_ne!(fast, LkParams::default());
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::{scratch_len, LkParams, LucasKanade, TemplatePlacement, TrackStatus};
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::Point;
+///
+/// // A smooth blob moving 1.5 px right, tracked from a point between pixels.
+/// let blob = |cx: f32| -> [u8; 64 * 64] {
+///     core::array::from_fn(|i| {
+///         let (x, y) = ((i % 64) as f32 - cx, (i / 64) as f32 - 32.0);
+///         (250.0 / (1.0 + (x * x + y * y) / 40.0)) as u8
+///     })
+/// };
+/// let (a, b) = (blob(30.0), blob(31.5));
+/// let mut storage = [[0u8; pyramid_storage_len(64, 64, 2)]; 2];
+/// let [sa, sb] = &mut storage;
+/// let prev = Pyramid::build(ImageView::packed(&a, 64, 64).unwrap(), 2, sa).unwrap();
+/// let next = Pyramid::build(ImageView::packed(&b, 64, 64).unwrap(), 2, sb).unwrap();
+/// let mut scratch = [0i16; scratch_len(21)];
+/// let start = Point::from_f32(27.3, 30.6);
+/// let mut track = |template| {
+///     let params = LkParams { max_level: 2, template, ..LkParams::default() };
+///     let lk = LucasKanade::new(params).unwrap();
+///     let t = lk.track_point(&prev, &next, start, None, &mut scratch).unwrap();
+///     assert_eq!(t.status, TrackStatus::Tracked);
+///     t.position.to_f32()
+/// };
+/// // Under a translation both placements find the point 1.5 px further right.
+/// for (x, y) in [track(TemplatePlacement::AtPoint), track(TemplatePlacement::NearestPixel)] {
+///     assert!((x - 28.8).abs() < 0.05 && (y - 30.6).abs() < 0.05, "{x} {y}");
+/// }
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

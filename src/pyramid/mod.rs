@@ -97,8 +97,24 @@ pub struct Pyramid<'a> {
 /// How each pyramid level is made from the one below it.
 ///
 /// ```
-/// use kestrel::pyramid::PyramidFilter;
-/// assert_eq!(PyramidFilter::default(), PyramidFilter::Gaussian);
+/// use kestrel::frame::ImageView;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
+///
+/// // One bright pixel at (2, 2): the box mean keeps it in its 2 x 2 block, the Gaussian
+/// // spreads it to the level-1 pixels around.
+/// let mut pixels = [0u8; 64];
+/// pixels[2 * 8 + 2] = 160;
+/// let frame = ImageView::packed(&pixels, 8, 8).unwrap();
+/// let mut storage = [[0u8; pyramid_storage_len(8, 8, 1)]; 3];
+/// let [a, b, c] = &mut storage;
+/// let built = Pyramid::build(frame, 1, a).unwrap();
+/// let gaussian = Pyramid::build_with(frame, 1, PyramidFilter::Gaussian, b).unwrap();
+/// let boxed = Pyramid::build_with(frame, 1, PyramidFilter::Box, c).unwrap();
+/// let at = |p: &Pyramid, x, y| p.level(1).unwrap().get(x, y).unwrap();
+/// assert_eq!((at(&boxed, 1, 1), at(&boxed, 0, 1)), (40, 0));
+/// assert!(at(&gaussian, 1, 1) > 0 && at(&gaussian, 0, 1) > 0);
+/// // `Pyramid::build` uses the default filter, the Gaussian.
+/// assert!((0..4).all(|y| (0..4).all(|x| at(&built, x, y) == at(&gaussian, x, y))));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

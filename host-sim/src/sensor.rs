@@ -1,6 +1,7 @@
 //! Flow-sensor estimators on frame pairs, for comparing them on the same frames: the library's
 //! flow-sensor preset and PX4FLOW's block matching (the `px4flow` crate), and the truth they
-//! are measured against, the true displacement of the principal point.
+//! are measured against, the true displacement of the principal point. Each comes plain (the
+//! flow or none) and rated (the flow with the quality the sensor would send with it).
 //!
 //! ```
 //! use host_sim::sensor::{kestrel_preset, px4flow_block_matching};
@@ -29,14 +30,40 @@ use crate::Frame;
 /// (quality 0).
 pub type Estimator = Box<dyn FnMut(&Frame, &Frame) -> Option<(f32, f32)>>;
 
+/// A flow with the quality a sensor reports for it, 1 to 255 as in OPTICAL_FLOW_RAD (quality 0,
+/// no flow, is a rated estimator's `None`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// Flow at the principal point, px per pair (x right, y down).
+    pub flow: (f32, f32),
+    /// The sensor's confidence in it, 1 to 255.
+    pub quality: u8,
+}
+
+/// An estimator that rates its flow: two frames in, a [`Reading`] out, or `None` for no flow.
+pub type RatedEstimator = Box<dyn FnMut(&Frame, &Frame) -> Option<Reading>>;
+
+/// `rated` without its quality.
+fn unrated(mut rated: RatedEstimator) -> Estimator {
+    Box::new(move |prev: &Frame, next: &Frame| rated(prev, next).map(|reading| reading.flow))
+}
+
 /// PX4FLOW's block matching with its defaults (±4 px): the mean of its valid blocks' flow.
 pub fn px4flow_block_matching() -> Estimator {
+    unrated(px4flow_rated())
+}
+
+/// [`px4flow_block_matching`] with PX4FLOW's quality, `valid blocks x 255 / 25`.
+pub fn px4flow_rated() -> RatedEstimator {
     let matcher = BlockMatcher::new(Config::default()).expect("PX4FLOW's defaults are valid");
     let mut workspace = Workspace::new();
     Box::new(move |prev: &Frame, next: &Frame| {
         let (prev, next) = (prev.view().ok()?, next.view().ok()?);
         let flow = matcher.flow(&prev, &next, &mut workspace).ok()?;
-        flow.is_valid().then_some((flow.x, flow.y))
+        flow.is_valid().then_some(Reading {
+            flow: (flow.x, flow.y),
+            quality: flow.quality,
+        })
     })
 }
 
@@ -45,6 +72,12 @@ pub fn px4flow_block_matching() -> Estimator {
 /// similarity fit the firmware's sensor uses; the flow is where the fit moves the principal
 /// point. `None` when the frames cannot be tracked or the fit fails.
 pub fn kestrel_preset() -> Estimator {
+    unrated(kestrel_preset_rated())
+}
+
+/// [`kestrel_preset`] with the fit's quality, `EgoMotion::quality`: what the firmware sends in
+/// OPTICAL_FLOW_RAD for the pair.
+pub fn kestrel_preset_rated() -> RatedEstimator {
     const TRACKS: usize = 25;
     let config = TrackerConfig::flow_sensor();
     let mut storage = Vec::new();
@@ -91,7 +124,10 @@ pub fn kestrel_preset() -> Estimator {
         }
         let centre = ((width as f32 - 1.0) / 2.0, (height as f32 - 1.0) / 2.0);
         let (x, y) = motion.model.apply(centre)?;
-        Some((x - centre.0, y - centre.1))
+        Some(Reading {
+            flow: (x - centre.0, y - centre.1),
+            quality: motion.quality,
+        })
     })
 }
 

@@ -340,7 +340,7 @@ fn a_tracker_started_on_a_flat_frame_waits_for_texture() {
 
 #[test]
 fn a_saturated_frame_leaves_few_tracks_and_no_confident_motion() {
-    // Gain 3 and bias +60: three quarters of the second frame's pixels clip at 255.
+    // Gain 3 and bias +60: most of the second frame's pixels clip at 255 (measured: 91 %).
     let blown = Lighting {
         gain: 3.0,
         bias: 60.0,
@@ -354,7 +354,7 @@ fn a_saturated_frame_leaves_few_tracks_and_no_confident_motion() {
     let clipped = shots[1].frame.data.iter().filter(|&&v| v == 255).count();
     let share = clipped as f32 / (W * H) as f32;
     eprintln!("saturated: {:.0}% of the pixels at 255", 100.0 * share);
-    assert!(share >= 0.7);
+    assert!(share >= 0.8);
     let outcomes = run("saturated", &shots);
     assert_nothing_confidently_wrong("saturated", &outcomes);
 }
@@ -480,13 +480,16 @@ fn a_frame_from_another_scene_ends_the_tracks() {
 
 #[test]
 fn an_exposure_jump_moves_no_track() {
-    for (label, lighting) in [
+    // The tracks kept through the jump, at least. Measured: darker, 81 of 81; brighter, 67 of
+    // 81 (the residual gate drops 14 whose windows clip).
+    for (label, lighting, min_kept) in [
         (
             "darker",
             Lighting {
                 gain: 0.5,
                 bias: -10.0,
             },
+            0.97,
         ),
         (
             "brighter",
@@ -494,6 +497,7 @@ fn an_exposure_jump_moves_no_track() {
                 gain: 1.25,
                 bias: 15.0,
             },
+            0.8,
         ),
     ] {
         let shots = [
@@ -509,18 +513,18 @@ fn an_exposure_jump_moves_no_track() {
         // one region. It moves in that one pair only, so it is no box: boxes must persist over
         // two pairs.
         assert_nothing_confidently_wrong(label, &outcomes);
-        check_jump(label, &outcomes);
+        check_jump(label, &outcomes, min_kept);
     }
 }
 
-/// Most tracks survive the jump, and the motion is found through it.
-fn check_jump(label: &str, outcomes: &[Outcome]) {
+/// At least `min_kept` of the tracks survive the jump, and the motion is found through it.
+fn check_jump(label: &str, outcomes: &[Outcome], min_kept: f32) {
     let jump = &outcomes[1];
     let kept = jump.report.tracked as f32 / outcomes[0].report.live as f32;
     eprintln!(
         "{label}: {:.0}% of the tracks kept through the jump",
         100.0 * kept
     );
-    assert!(kept >= 0.8, "{label}: tracks kept");
+    assert!(kept >= min_kept, "{label}: tracks kept");
     assert!(jump.ego.is_ok() && jump.ego_error.unwrap() <= 0.1);
 }

@@ -228,8 +228,9 @@ fn tracks_stay_on_their_features_under_pan_rotation_and_zoom() {
     let frames: Vec<Frame> = sequence.frames().collect();
     let records = run(&frames, TrackerConfig::default());
     let f = figures(&sequence, &records, "320x240 pan+rotation+zoom");
-    assert!(f.within_1px >= 0.9, "within 1 px at frame 100");
-    assert!(f.median_error <= 0.5);
+    // Measured: 100 % of 92 within 1 px, median error 0.078 px.
+    assert!(f.within_1px >= 0.97, "within 1 px at frame 100");
+    assert!(f.median_error <= 0.15);
     assert!(f.min_live >= 60, "live count");
 }
 
@@ -293,7 +294,8 @@ fn tracks_live_as_long_as_opencvs_under_steady_yaw_and_zoom() {
         drops(|r| r.dropped_fb),
     );
     assert!(life >= OPENCV_LIFE, "mean track life {life:.1}");
-    assert!(f.within_1px >= 0.9, "within 1 px at frame 100");
+    // Measured: 100 % of 83 within 1 px.
+    assert!(f.within_1px >= 0.97, "within 1 px at frame 100");
     assert!(f.mean_live >= 85.0, "live tracks {:.1}", f.mean_live);
 }
 
@@ -316,7 +318,8 @@ fn refill_keeps_the_count_near_the_target_as_features_leave() {
         f.min_live
     );
     assert!(f.mean_live >= 0.8 * target);
-    assert!(f.within_1px >= 0.9);
+    // Measured: 98.9 % of 91 within 1 px (one track off).
+    assert!(f.within_1px >= 0.95);
     // Most of frame 0's tracks left the view; ids kept counting.
     assert!(f.survival < 0.5 && f.ids > 2 * config.max_tracks);
 }
@@ -335,7 +338,8 @@ fn the_firmware_frame_size_tracks_too() {
     let frames: Vec<Frame> = sequence.frames().collect();
     let records = run(&frames, TrackerConfig::default());
     let f = figures(&sequence, &records, "160x120 pan+rotation+zoom");
-    assert!(f.within_1px >= 0.9, "within 1 px at frame 100");
+    // Measured: 98.8 % of 80 within 1 px (one track off).
+    assert!(f.within_1px >= 0.95, "within 1 px at frame 100");
     assert!(f.min_live >= 60, "live count");
 }
 
@@ -452,8 +456,9 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     );
 
     assert_eq!(on.hidden_live, 0, "a covered background track lived on");
-    assert!(on.within_2px >= 0.97);
-    assert!(on.final_within_2px >= 0.95);
+    // Measured: 98.9 % of 8664 track-frames within 2 px, and 98.8 % of 86 at frame 100.
+    assert!(on.within_2px >= 0.98);
+    assert!(on.final_within_2px >= 0.97);
     // Nothing dragged along: an occluder carries a track tens of pixels.
     assert!(on.worst < 10.0, "worst error {:.1} px", on.worst);
     // The baseline lets covered tracks ride on the occluders.
@@ -885,7 +890,8 @@ fn searches_from_predictions_track_as_well_as_the_whole_pyramid() {
     assert!(predicted.within_1px >= whole.within_1px - 0.02);
     assert!(predicted.median_error <= whole.median_error + 0.02);
     assert!(predicted.mean_live >= whole.mean_live - 3.0);
-    assert!(predicted.within_1px >= 0.95, "{}", predicted.within_1px);
+    // Measured: 100 % of 86 within 1 px.
+    assert!(predicted.within_1px >= 0.97, "{}", predicted.within_1px);
 }
 
 /// A camera that turns back at once (3 px a frame one way, then the other): every track's

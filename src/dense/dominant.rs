@@ -161,9 +161,25 @@ impl CameraMotion for DominantMotion {
 /// How the dominant motion is fitted.
 ///
 /// ```
-/// use kestrel::dense::dominant::FitParams;
-/// let p = FitParams::default();
-/// assert_eq!((p.start_radius, p.inlier_radius, p.iterations), (8.0, 1.0, 10));
+/// use kestrel::dense::dominant::{DominantMotion, FitParams};
+/// use kestrel::dense::grid::{GridLayout, GridNode};
+/// use kestrel::dense::DenseError;
+/// use kestrel::Point;
+///
+/// // The camera pans 1 px right; four nodes measured 1.5 px more.
+/// let layout = GridLayout::new(64, 64, 8).unwrap();
+/// let mut nodes = [GridNode::tracked(Point::from_f32(1.0, 0.0)); 64];
+/// for i in [9, 18, 27, 36] {
+///     nodes[i] = GridNode::tracked(Point::from_f32(2.5, 0.0));
+/// }
+/// let fit = |inlier_radius| {
+///     let params = FitParams { inlier_radius, ..FitParams::default() };
+///     DominantMotion::fit(&layout, &nodes, &params)
+/// };
+/// // Within the default radius of 1 px, only the pan's nodes are inliers; 2 px takes all.
+/// assert_eq!(fit(1.0).unwrap().inliers, 60);
+/// assert_eq!(fit(2.0).unwrap().inliers, 64);
+/// assert_eq!(fit(0.0).unwrap_err(), DenseError::BadThreshold);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -385,10 +385,19 @@ impl GridNode {
 /// Dense-mode parameters.
 ///
 /// ```
-/// use kestrel::dense::grid::DenseParams;
-/// let p = DenseParams::default();
-/// assert_eq!((p.cell, p.lk.window, p.lk.min_eigen_threshold, p.fill_passes), (8, 9, 7e-4, 2));
-/// assert_eq!(DenseParams::for_motion().lk.min_eigen_threshold, 3e-3);
+/// use kestrel::dense::grid::{DenseFlow, DenseParams};
+/// use kestrel::dense::DenseError;
+/// // A node every `cell` px: over a 64 x 48 frame, 8 x 6 nodes for 8 px, 4 x 3 for 16 px.
+/// let nodes = |cell| {
+///     let dense = DenseFlow::new(DenseParams { cell, ..DenseParams::default() }).unwrap();
+///     let layout = dense.layout(64, 48).unwrap();
+///     (layout.cols(), layout.rows())
+/// };
+/// assert_eq!(nodes(8), (8, 6));
+/// assert_eq!(nodes(16), (4, 3));
+/// // The camera check's tolerance is at most a pixel.
+/// let loose = DenseParams { camera_tolerance: 1.5, ..DenseParams::default() };
+/// assert_eq!(DenseFlow::new(loose).unwrap_err(), DenseError::BadThreshold);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -532,7 +541,8 @@ impl DenseFlow {
     ///
     /// ```
     /// use kestrel::dense::grid::{DenseFlow, DenseParams};
-    /// assert_eq!(DenseFlow::new(DenseParams::default()).unwrap().params().cell, 8);
+    /// let params = DenseParams { cell: 16, fill_passes: 0, ..DenseParams::for_motion() };
+    /// assert_eq!(*DenseFlow::new(params).unwrap().params(), params);
     /// ```
     pub fn params(&self) -> &DenseParams {
         &self.params

@@ -97,9 +97,27 @@ pub const fn motion_scratch_len(width: usize, height: usize, cell: usize) -> usi
 /// Motion-detection parameters.
 ///
 /// ```
-/// use kestrel::dense::motion::MotionParams;
-/// let p = MotionParams::default();
-/// assert_eq!((p.threshold, p.include_filled, p.close, p.open), (0.8, false, None, None));
+/// use kestrel::dense::dominant::DominantMotion;
+/// use kestrel::dense::grid::{GridLayout, GridNode, NodeStatus};
+/// use kestrel::dense::motion::{MotionDetector, MotionParams};
+/// use kestrel::Point;
+///
+/// // A still camera: one node moves 0.5 px, another 1.5 px, and a filled one 1.5 px.
+/// let layout = GridLayout::new(24, 8, 8).unwrap();
+/// let filled = GridNode { status: NodeStatus::Filled, ..GridNode::tracked(Point::from_f32(1.5, 0.0)) };
+/// let nodes = [
+///     GridNode::tracked(Point::from_f32(0.5, 0.0)),
+///     GridNode::tracked(Point::from_f32(0.0, 1.5)),
+///     filled,
+/// ];
+/// let moving = |params| {
+///     let detector = MotionDetector::new(params).unwrap();
+///     detector.mark(&layout, &nodes, &DominantMotion::ZERO, &mut [0u32]).unwrap()
+/// };
+/// let default = MotionParams::default();
+/// assert_eq!(moving(default), 1);
+/// assert_eq!(moving(MotionParams { threshold: 0.4, ..default }), 2);
+/// assert_eq!(moving(MotionParams { include_filled: true, ..default }), 2);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -174,8 +192,9 @@ impl MotionDetector {
     ///
     /// ```
     /// use kestrel::dense::motion::{MotionDetector, MotionParams};
-    /// let detector = MotionDetector::new(MotionParams::default()).unwrap();
-    /// assert_eq!(detector.params().threshold, 0.8);
+    /// let params = MotionParams { threshold: 1.2, include_filled: true, ..MotionParams::default() };
+    /// let detector = MotionDetector::new(params).unwrap();
+    /// assert_eq!(*detector.params(), params);
     /// ```
     pub fn params(&self) -> &MotionParams {
         &self.params

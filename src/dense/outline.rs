@@ -159,11 +159,63 @@ const fn bins(reach: usize) -> usize {
 
 /// How candidates are outlined.
 ///
+/// A still camera over ground where a 10 x 10 object moves 3 px right, boxed by the grid
+/// (the setup of the module example):
+///
 /// ```
-/// use kestrel::dense::outline::OutlineParams;
-/// let p = OutlineParams::default();
-/// assert_eq!((p.margin, p.min_gain, p.min_pixels, p.refinements), (6, 2, 16, 2));
-/// assert_eq!((p.side, p.reach), (48, 8));
+/// # use kestrel::dense::grid::{grid_len, GridLayout, GridNode};
+/// # use kestrel::dense::mask::{mask_words, set};
+/// # use kestrel::dense::motion::CameraMotion;
+/// # use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
+/// # use kestrel::dense::regions::MotionBox;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// # use kestrel::Point;
+/// #
+/// # // A still camera over ground with a 10 x 10 object that moves 3 px right.
+/// # const W: usize = 64;
+/// # const H: usize = 48;
+/// # let ground = |x: usize, y: usize| ((x * 7 + y * 13 + (x * y) % 11 * 19) % 200) as u8;
+/// # let object = |x: usize, y: usize| ((x * 29 + y * 5 + (x ^ y) * 23) % 240) as u8 + 10;
+/// # let frame = |shift: usize| -> [u8; W * H] {
+/// #     core::array::from_fn(|i| {
+/// #         let (x, y) = (i % W, i / W);
+/// #         let inside = (20 + shift..30 + shift).contains(&x) && (16..26).contains(&y);
+/// #         if inside { object(x - shift, y) } else { ground(x, y) }
+/// #     })
+/// # };
+/// # let (a, b) = (frame(0), frame(3));
+/// # let mut storage = [[0u8; pyramid_storage_len(W, H, 1)]; 2];
+/// # let [sa, sb] = &mut storage;
+/// # let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, sa).unwrap();
+/// # let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, sb).unwrap();
+/// #
+/// # // The grid found the object's motion at two nodes, in a region boxed from 16 to 40 px.
+/// # let layout = GridLayout::new(W, H, 8).unwrap();
+/// # let mut nodes = [GridNode::tracked(Point::default()); grid_len(W, H, 8)];
+/// # let mut mask = [0u32; mask_words(W, H, 8)];
+/// # for (col, row) in [(2, 2), (3, 2)] {
+/// #     let index = layout.index(col, row).unwrap();
+/// #     nodes[index] = GridNode::tracked(Point::from_f32(3.0, 0.0));
+/// #     set(&mut mask, index, true);
+/// # }
+/// # struct Still;
+/// # impl CameraMotion for Still {
+/// #     fn predict(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
+/// # }
+/// # let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
+/// #
+/// let outline = |params: OutlineParams| {
+///     let mut scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
+///     let mut boxes = [MotionBox::default(); 4];
+///     let outliner = Outliner::new(params).unwrap();
+///     outliner
+///         .outline(&prev, &next, &Still, &layout, &nodes, &mask, &[candidate], &mut scratch, &mut boxes)
+///         .unwrap()
+/// };
+/// assert_eq!(outline(OutlineParams::default()), 1);
+/// // The object's 100 pixels are too few for an outline of at least 200.
+/// assert_eq!(outline(OutlineParams { min_pixels: 200, ..OutlineParams::default() }), 0);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -365,8 +417,8 @@ impl Outliner {
     ///
     /// ```
     /// use kestrel::dense::outline::{OutlineParams, Outliner};
-    /// let outliner = Outliner::new(OutlineParams::default()).unwrap();
-    /// assert_eq!(outliner.params().margin, 6);
+    /// let params = OutlineParams { margin: 2, side: 32, reach: 4, ..OutlineParams::default() };
+    /// assert_eq!(*Outliner::new(params).unwrap().params(), params);
     /// ```
     pub fn params(&self) -> &OutlineParams {
         &self.params

@@ -128,8 +128,25 @@ pub struct RegionCount {
 /// Which regions give boxes, and how boxes are drawn around them.
 ///
 /// ```
-/// use kestrel::dense::regions::BoxRules;
-/// assert_eq!(BoxRules::default(), BoxRules { min_nodes: 3, inset: 4 });
+/// use kestrel::dense::grid::{GridLayout, GridNode};
+/// use kestrel::dense::regions::{find_boxes, BoxRules, MotionBox};
+/// use kestrel::Point;
+///
+/// // A 4 x 4 grid of 8 px cells: a region of two nodes side by side, at (1, 1) and (2, 1).
+/// let layout = GridLayout::new(32, 32, 8).unwrap();
+/// let nodes = [GridNode::tracked(Point::from_f32(1.0, 0.0)); 16];
+/// let mask = [0b0110_0000];
+/// let find = |rules| {
+///     let mut boxes = [MotionBox::default(); 1];
+///     let found = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 16], &rules, &mut boxes);
+///     let b = boxes[0];
+///     (found.unwrap().boxes, (b.x, b.y, b.w, b.h))
+/// };
+/// // Two nodes are too few for the default's three.
+/// assert_eq!(find(BoxRules::default()).0, 0);
+/// // The region's cells, inset on each side; one node high, it keeps its cell's height.
+/// assert_eq!(find(BoxRules { min_nodes: 2, inset: 0 }), (1, (8, 8, 16, 8)));
+/// assert_eq!(find(BoxRules { min_nodes: 2, inset: 4 }), (1, (12, 8, 8, 8)));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

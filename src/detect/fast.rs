@@ -46,9 +46,23 @@ pub const fn scratch_len(width: usize) -> usize {
 /// FAST-9 detector settings.
 ///
 /// ```
-/// use kestrel::detect::fast::Fast;
-/// let fast = Fast::default();
-/// assert_eq!((fast.threshold, fast.nonmax), (10, true));
+/// use kestrel::detect::fast::{scratch_len, Fast};
+/// use kestrel::detect::{Corner, Region};
+/// use kestrel::frame::ImageView;
+///
+/// // Three bright dots on a grey frame, of contrast 200, 70 and 5.
+/// let mut pixels = [50u8; 32 * 16];
+/// (pixels[8 * 32 + 6], pixels[8 * 32 + 16], pixels[8 * 32 + 26]) = (250, 120, 55);
+/// let image = ImageView::packed(&pixels, 32, 16).unwrap();
+/// let corners = |threshold| {
+///     let fast = Fast { threshold, ..Fast::default() };
+///     let mut out = [Corner::default(); 8];
+///     fast.detect(&image, Region::full(&image), None, &mut [0u8; scratch_len(32)], &mut out)
+/// };
+/// // A larger threshold keeps fewer corners.
+/// assert_eq!(corners(0), Ok(3));
+/// assert_eq!(corners(Fast::default().threshold), Ok(2));
+/// assert_eq!(corners(100), Ok(1));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

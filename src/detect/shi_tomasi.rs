@@ -75,9 +75,24 @@ pub const fn scratch_len(width: usize, capacity: usize) -> usize {
 /// Shi-Tomasi detector settings.
 ///
 /// ```
-/// use kestrel::detect::shi_tomasi::ShiTomasi;
-/// let st = ShiTomasi::default();
-/// assert_eq!((st.block, st.quality_level, st.min_distance), (3, 0.01, 10));
+/// use kestrel::detect::shi_tomasi::{scratch_len, ShiTomasi};
+/// use kestrel::detect::{Corner, Region};
+/// use kestrel::frame::ImageView;
+///
+/// // A bright 12 x 12 square on a dark frame: its corners are about 11 px apart.
+/// let pixels: [u8; 32 * 32] = core::array::from_fn(|i| {
+///     let (x, y) = (i % 32, i / 32);
+///     if (10..22).contains(&x) && (10..22).contains(&y) { 200 } else { 20 }
+/// });
+/// let image = ImageView::packed(&pixels, 32, 32).unwrap();
+/// let corners = |min_distance| {
+///     let st = ShiTomasi { min_distance, ..ShiTomasi::default() };
+///     let mut out = [Corner::default(); 16];
+///     st.detect(&image, Region::full(&image), None, &mut [0i32; scratch_len(32, 16)], &mut out)
+/// };
+/// assert_eq!(corners(ShiTomasi::default().min_distance), Ok(4));
+/// // Beyond the square's diagonal, one corner is left.
+/// assert_eq!(corners(20), Ok(1));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -88,10 +88,25 @@ impl Correspondence for ((f32, f32), (f32, f32)) {
 
 /// Which motion model to fit.
 ///
+/// A model fits only the motions it can express: a shift cannot turn.
+///
 /// ```
-/// use kestrel::ego::ModelKind;
-/// assert_eq!(ModelKind::default(), ModelKind::Homography);
-/// assert_eq!(ModelKind::Affine.min_samples(), 3);
+/// use kestrel::ego::{fit, ModelKind};
+/// // Four corners of a square turned by 0.1 rad about the origin.
+/// let turn = |(x, y): (f32, f32)| {
+///     let (s, c) = (0.1f32.sin(), 0.1f32.cos());
+///     (c * x - s * y, s * x + c * y)
+/// };
+/// let pairs = [(0.0, 0.0), (40.0, 0.0), (0.0, 40.0), (40.0, 40.0)].map(|p| (p, turn(p)));
+/// // How far each fitted model puts the far corner from where it went, px.
+/// let miss = |kind| {
+///     let (x, y) = fit(kind, &pairs).unwrap().apply((40.0, 40.0)).unwrap();
+///     let (tx, ty) = turn((40.0, 40.0));
+///     ((x - tx).powi(2) + (y - ty).powi(2)).sqrt()
+/// };
+/// assert!(miss(ModelKind::Translation) > 2.0);
+/// assert!(miss(ModelKind::Similarity) < 1e-3);
+/// assert!(miss(ModelKind::Homography) < 1e-3);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -38,11 +38,23 @@
 use super::linalg::sqrt;
 use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair};
 
-/// The generator seed used unless the parameters say otherwise.
+/// The generator seed used unless the parameters say otherwise: the seed decides which
+/// samples are drawn.
 ///
 /// ```
-/// use kestrel::ego::{RansacParams, DEFAULT_SEED};
-/// assert_eq!(RansacParams::default().seed, DEFAULT_SEED);
+/// use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams, DEFAULT_SEED};
+/// // 24 tracks shifted by (2, 1), and 16 scattered ones.
+/// let tracks: [((f32, f32), (f32, f32)); 40] = core::array::from_fn(|i| {
+///     let (x, y) = ((i % 8) as f32 * 20.0, (i / 8) as f32 * 20.0);
+///     let off = if i % 5 < 3 { (2.0, 1.0) } else { ((i * 7 % 11) as f32 - 5.0, (i * 3 % 13) as f32) };
+///     ((x, y), (x + off.0, y + off.1))
+/// });
+/// // One draw: it finds the consensus only when it picks one of the shifted tracks.
+/// let one_draw = RansacParams { model: ModelKind::Translation, max_iterations: 1, ..Default::default() };
+/// let run = |params| Ransac::new(params).unwrap().estimate(&tracks, &mut [false; 40]).unwrap();
+/// let seeds: Vec<EgoStatus> = (0..16).map(|seed| run(RansacParams { seed, ..one_draw }).status).collect();
+/// assert!(seeds.contains(&EgoStatus::Ok) && seeds.contains(&EgoStatus::NoConsensus));
+/// assert_eq!(run(one_draw), run(RansacParams { seed: DEFAULT_SEED, ..one_draw }));
 /// ```
 pub const DEFAULT_SEED: u64 = 0x4B45_5354_5245_4C21;
 
@@ -50,7 +62,19 @@ pub const DEFAULT_SEED: u64 = 0x4B45_5354_5245_4C21;
 ///
 /// ```
 /// use kestrel::ego::ransac::FULL_SUPPORT;
-/// assert_eq!(FULL_SUPPORT, 32);
+/// use kestrel::ego::{ModelKind, Ransac, RansacParams};
+/// let ransac = Ransac::new(RansacParams { model: ModelKind::Translation, ..Default::default() })
+///     .unwrap();
+/// // Exact tracks, every one an inlier: only their count limits the quality.
+/// let tracks: [((f32, f32), (f32, f32)); 40] = core::array::from_fn(|i| {
+///     let (x, y) = ((i % 8) as f32 * 10.0, (i / 8) as f32 * 10.0);
+///     ((x, y), (x + 1.0, y))
+/// });
+/// let quality = |n: usize| ransac.estimate(&tracks[..n], &mut [false; 40][..n]).unwrap().quality;
+/// // A quarter of the full support: 255 / 4, rounded.
+/// assert_eq!(quality(usize::from(FULL_SUPPORT) / 4), 64);
+/// assert_eq!(quality(usize::from(FULL_SUPPORT)), 255);
+/// assert_eq!(quality(40), 255);
 /// ```
 pub const FULL_SUPPORT: u16 = 32;
 
@@ -161,11 +185,21 @@ impl EgoMotion {
 
 /// Robust estimation parameters.
 ///
+/// The threshold decides which tracks count as moving with the camera:
+///
 /// ```
-/// use kestrel::ego::{ModelKind, RansacParams, DEFAULT_SEED};
-/// let p = RansacParams::default();
-/// assert_eq!((p.model, p.threshold, p.max_iterations), (ModelKind::Homography, 1.0, 200));
-/// assert_eq!(p.seed, DEFAULT_SEED);
+/// use kestrel::ego::{ModelKind, Ransac, RansacParams};
+/// // 20 tracks shifted by 1 px, and 6 shifted by 3 px.
+/// let tracks: [((f32, f32), (f32, f32)); 26] = core::array::from_fn(|i| {
+///     let (x, y) = ((i % 6) as f32 * 20.0, (i / 6) as f32 * 20.0);
+///     ((x, y), (x + if i < 20 { 1.0 } else { 3.0 }, y))
+/// });
+/// let inliers = |threshold| {
+///     let params = RansacParams { model: ModelKind::Translation, threshold, ..Default::default() };
+///     Ransac::new(params).unwrap().estimate(&tracks, &mut [false; 26]).unwrap().inliers
+/// };
+/// assert_eq!(inliers(1.0), 20);
+/// assert_eq!(inliers(3.0), 26);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -280,9 +314,17 @@ impl Ransac {
 
     /// The parameters this estimator was built with.
     ///
+    /// They are kept as given: a consensus still needs one track more than the model's minimal
+    /// sample, whatever [`RansacParams::min_inliers`] says.
+    ///
     /// ```
-    /// use kestrel::ego::{Ransac, RansacParams};
-    /// assert_eq!(Ransac::new(RansacParams::default()).unwrap().params().threshold, 1.0);
+    /// use kestrel::ego::{EgoStatus, Ransac, RansacParams};
+    /// let ransac = Ransac::new(RansacParams { min_inliers: 2, ..Default::default() }).unwrap();
+    /// assert_eq!(ransac.params().min_inliers, 2);
+    /// // Four exact tracks determine a homography but are no consensus for one.
+    /// let four = [(0.0, 0.0), (50.0, 0.0), (0.0, 50.0), (50.0, 50.0)].map(|(x, y)| ((x, y), (x + 1.0, y)));
+    /// let motion = ransac.estimate(&four, &mut [false; 4]).unwrap();
+    /// assert_eq!(motion.status, EgoStatus::TooFewTracks);
     /// ```
     pub fn params(&self) -> &RansacParams {
         &self.params

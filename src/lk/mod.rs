@@ -156,10 +156,37 @@ pub enum TemplatePlacement {
 
 /// Tracking parameters, with OpenCV's defaults.
 ///
+/// A point is followed only where its window has the texture
+/// [`LkParams::min_eigen_threshold`] asks for:
+///
 /// ```
-/// use kestrel::lk::LkParams;
-/// let p = LkParams::default();
-/// assert_eq!((p.window, p.max_level, p.max_iterations), (21, 3, 30));
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::Point;
+///
+/// // A faint blob, 30 grey levels over its ground, moving 1 px right.
+/// let blob = |cx: f32| -> [u8; 32 * 32] {
+///     core::array::from_fn(|i| {
+///         let (x, y) = ((i % 32) as f32 - cx, (i / 32) as f32 - 16.0);
+///         (100.0 + 30.0 / (1.0 + (x * x + y * y) / 20.0)) as u8
+///     })
+/// };
+/// let (a, b) = (blob(16.0), blob(17.0));
+/// let mut storage = [[0u8; pyramid_storage_len(32, 32, 0)]; 2];
+/// let [sa, sb] = &mut storage;
+/// let prev = Pyramid::build(ImageView::packed(&a, 32, 32).unwrap(), 0, sa).unwrap();
+/// let next = Pyramid::build(ImageView::packed(&b, 32, 32).unwrap(), 0, sb).unwrap();
+/// let mut scratch = [0i16; scratch_len(21)];
+/// let mut track = |min_eigen_threshold| {
+///     let lk = LucasKanade::new(LkParams { min_eigen_threshold, ..LkParams::default() }).unwrap();
+///     lk.track_point(&prev, &next, Point::from_f32(16.0, 16.0), None, &mut scratch).unwrap()
+/// };
+/// let t = track(LkParams::default().min_eigen_threshold);
+/// assert_eq!(t.status, TrackStatus::Tracked);
+/// assert!((t.position.to_f32().0 - 17.0).abs() < 0.1);
+/// // Gradients of 5 grey levels per pixel are more than this blob has.
+/// assert_eq!(track(25.0 / 1024.0).status, TrackStatus::LowTexture);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -327,9 +354,9 @@ impl LucasKanade {
     /// The parameters this tracker was built with.
     ///
     /// ```
-    /// use kestrel::lk::{LkParams, LucasKanade};
-    /// let lk = LucasKanade::new(LkParams::default()).unwrap();
-    /// assert_eq!(lk.params().window, 21);
+    /// use kestrel::lk::{Illumination, LkParams, LucasKanade};
+    /// let params = LkParams { window: 9, illumination: Illumination::Plain, ..LkParams::default() };
+    /// assert_eq!(*LucasKanade::new(params).unwrap().params(), params);
     /// ```
     pub fn params(&self) -> &LkParams {
         &self.params

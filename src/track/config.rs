@@ -11,10 +11,25 @@ use crate::q16::Q16;
 /// The corner detector that starts new tracks.
 ///
 /// ```
-/// use kestrel::detect::fast::Fast;
-/// use kestrel::track::Detector;
-/// let fast = Detector::Fast(Fast { threshold: 20, ..Fast::default() });
-/// assert_ne!(fast, Detector::default());
+/// use kestrel::detect::{fast::Fast, Corner};
+/// use kestrel::lk::scratch_len;
+/// use kestrel::track::{tracker_storage_len, Detector, Tracker, TrackerBuffers, TrackerConfig, TrackerError};
+/// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };
+/// let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+/// let mut lk_scratch = [0i16; scratch_len(21)];
+/// let mut candidates = [Corner::default(); 4];
+/// let mut make = |detector| {
+///     let buffers = TrackerBuffers {
+///         storage: &mut storage,
+///         lk_scratch: &mut lk_scratch,
+///         detect_scratch: &mut [],
+///         candidates: &mut candidates,
+///     };
+///     Tracker::<4>::new(TrackerConfig { detector, ..config }, 32, 32, buffers).map(|_| ())
+/// };
+/// // Shi-Tomasi, the default, needs detection scratch; FAST needs none.
+/// assert_eq!(make(Detector::default()), Err(TrackerError::DetectScratchTooSmall));
+/// assert_eq!(make(Detector::Fast(Fast::default())), Ok(()));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -43,10 +58,47 @@ impl Default for Detector {
 /// The defaults suit 160 x 120 to 320 x 240 frames and 100 tracks:
 ///
 /// ```
-/// use kestrel::track::TrackerConfig;
+/// use kestrel::detect::Corner;
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::scratch_len;
+/// use kestrel::track::{
+///     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig, TrackerError,
+/// };
+///
+/// const W: usize = 160;
+/// const H: usize = 120;
 /// let config = TrackerConfig::default();
-/// assert_eq!((config.max_tracks, config.refill_below, config.detect_level), (100, 80, 1));
-/// assert_eq!(config.pyramid_levels(), 3);
+/// let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+/// let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+/// let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.detect_level, 200)];
+/// let mut candidates = vec![Corner::default(); 200];
+/// let buffers = TrackerBuffers {
+///     storage: &mut storage,
+///     lk_scratch: &mut lk_scratch,
+///     detect_scratch: &mut detect_scratch,
+///     candidates: &mut candidates,
+/// };
+/// // A tracker of fewer tracks than the settings want refuses them at once.
+/// let small = Tracker::<50>::new(config, W, H, buffers);
+/// assert_eq!(small.unwrap_err(), TrackerError::BadMaxTracks);
+/// let buffers = TrackerBuffers {
+///     storage: &mut storage,
+///     lk_scratch: &mut lk_scratch,
+///     detect_scratch: &mut detect_scratch,
+///     candidates: &mut candidates,
+/// };
+/// let mut tracker = Tracker::<100>::new(config, W, H, buffers).unwrap();
+/// let texture: Vec<u8> = (0..W * H).map(|i| {
+///     let (x, y) = (i % W, i / W);
+///     ((x * 37 + y * 91 + (x * y) % 13 * 17) % 251) as u8
+/// }).collect();
+/// let frame = ImageView::packed(&texture, W, H).unwrap();
+/// // Spread over the frame, the corners start most of the 100 tracks (88 on this texture),
+/// // more than the 80 below which a frame detects new ones.
+/// let started = tracker.start(frame).unwrap();
+/// assert!(started.added >= config.refill_below);
+/// let still = tracker.process(frame, frame, None).unwrap();
+/// assert_eq!((still.tracked, still.detected), (started.added, false));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -100,9 +100,42 @@ use refill::DetectBuffers;
 /// One tracked feature.
 ///
 /// ```
-/// use kestrel::track::Track;
-/// let t = Track::default();
-/// assert_eq!((t.id, t.age, t.born), (0, 0, 0));
+/// use kestrel::track::{Tracker, TrackerConfig};
+/// use kestrel::Point;
+/// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+/// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+/// # const W: usize = 64;
+/// # const H: usize = 48;
+/// # let mut storage = [0u8; tracker_storage_len(W, H, 3)];
+/// # let mut lk_scratch = [0i16; scratch_len(21)];
+/// # let mut detect_scratch = [0i32; detect_scratch_len(W, 1, 24)];
+/// # let mut candidates = [Corner::default(); 24];
+/// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// # let scene = |shift: f32| -> [u8; W * H] {
+/// #     core::array::from_fn(|i| {
+/// #         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+/// #         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
+/// #     })
+/// # };
+/// let config = TrackerConfig { max_tracks: 12, refill_below: 8, ..TrackerConfig::default() };
+/// let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
+/// // Smooth blobs, then the same blobs 1.5 px further right.
+/// let (a, b) = (scene(0.0), scene(1.5));
+/// let (first, second) = (ImageView::packed(&a, W, H).unwrap(), ImageView::packed(&b, W, H).unwrap());
+/// tracker.start(first).unwrap();
+/// tracker.process(first, second, None).unwrap();
+/// assert!(tracker.tracks().iter().any(|t| t.born == 0));
+/// for t in tracker.tracks() {
+///     if t.born == 0 {
+///         // Detected in frame 0 and followed one step of 1.5 px.
+///         let (dx, dy) = t.velocity.to_f32();
+///         assert!(t.age == 1 && (dx - 1.5).abs() < 0.1 && dy.abs() < 0.1, "{t:?}");
+///     } else {
+///         // Detected in frame 1: no step yet.
+///         assert_eq!((t.born, t.age, t.velocity), (1, 0, Point::default()));
+///     }
+/// }
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -286,8 +319,24 @@ struct Previous {
 /// A step of [`Tracker::process_observed`], reported as it ends.
 ///
 /// ```
-/// use kestrel::track::TrackerStage;
-/// assert_ne!(TrackerStage::Pyramid, TrackerStage::Follow);
+/// use kestrel::track::{TrackerStage, Tracker, TrackerConfig};
+/// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+/// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+/// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+/// # let mut lk_scratch = [0i16; scratch_len(21)];
+/// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+/// # let mut candidates = [Corner::default(); 4];
+/// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// // A tracker that detects corners only when it starts: its frames never refill.
+/// let config = TrackerConfig { max_tracks: 4, refill_below: 0, ..TrackerConfig::default() };
+/// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+/// let flat = [100u8; 32 * 32];
+/// let frame = ImageView::packed(&flat, 32, 32).unwrap();
+/// tracker.start(frame).unwrap();
+/// let mut stages = heapless::Vec::<TrackerStage, 3>::new();
+/// tracker.process_observed(frame, frame, None, |s| stages.push(s).unwrap()).unwrap();
+/// assert_eq!(stages, [TrackerStage::Pyramid, TrackerStage::Follow]);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -72,6 +72,11 @@ fn dense_corpus() {
     replay("dense");
 }
 
+#[test]
+fn motion_corpus() {
+    replay("motion");
+}
+
 fn target_named(name: &str) -> &'static targets::Target {
     targets::ALL
         .iter()
@@ -83,7 +88,10 @@ fn target_named(name: &str) -> &'static targets::Target {
 #[test]
 fn every_target_is_replayed() {
     let names: Vec<&str> = targets::ALL.iter().map(|t| t.name).collect();
-    assert_eq!(names, ["frame", "detect", "lk", "track", "ego", "dense"]);
+    assert_eq!(
+        names,
+        ["frame", "detect", "lk", "track", "ego", "dense", "motion"]
+    );
 }
 
 /// The checks themselves run on inputs made here, so a corpus that no longer decodes (after a

@@ -15,6 +15,7 @@ pub mod frame;
 pub mod lk;
 #[cfg(feature = "mavlink")]
 mod mavlink_frame;
+pub mod motion;
 pub mod picture;
 pub mod track;
 
@@ -59,6 +60,11 @@ pub const ALL: &[Target] = &[
         name: "dense",
         run: dense::run,
         show: dense::show,
+    },
+    Target {
+        name: "motion",
+        run: motion::run,
+        show: motion::show,
     },
 ];
 

@@ -80,8 +80,12 @@ impl Follow<'_, '_> {
         let tracked = steps.step_by(every).filter(|(_, f)| f.step.is_tracked());
         let mut pairs: Vec<(Point, Point), { turn::STEPS }> = Vec::new();
         for (t, f) in tracked {
-            // At most turn::STEPS by the stride above; a full buffer just stops taking more.
-            let _ = pairs.push((t.position, f.step.position));
+            // At most turn::STEPS by the stride above.
+            let pushed = pairs.push((t.position, f.step.position));
+            debug_assert!(
+                pushed.is_ok(),
+                "more steps than turn::STEPS at stride {every}"
+            );
         }
         let turn = Turn::of(&pairs);
         // A frame's similarity is the image's turn only on average (a tilted ground zooms more
@@ -175,7 +179,8 @@ impl Follow<'_, '_> {
                 None => Forward::default(),
             };
             // Cannot fail: one step per track, and both hold at most N.
-            let _ = forward.push(step);
+            let pushed = forward.push(step);
+            debug_assert!(pushed.is_ok(), "more tracks than the tracker's capacity");
         }
         let seeds = self.checked.constant_velocity;
         let mut seed = motion.median().filter(|_| seeds);
@@ -430,8 +435,11 @@ impl<const N: usize> FrameMotion<N> {
         if step.step.is_tracked() {
             let d = offset(step.step.position, Point::default(), track.position);
             // Both hold at most N, one entry per track.
-            let _ = self.dx.push(d.x.to_bits());
-            let _ = self.dy.push(d.y.to_bits());
+            let pushed = (self.dx.push(d.x.to_bits()), self.dy.push(d.y.to_bits()));
+            debug_assert!(
+                pushed.0.is_ok() && pushed.1.is_ok(),
+                "more tracks than the tracker's capacity"
+            );
         }
     }
 

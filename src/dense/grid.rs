@@ -563,8 +563,8 @@ impl DenseFlow {
     /// [`grid_len`] long; entries beyond it are left alone), then fills invalid nodes.
     ///
     /// `scratch` is LK's, [`scratch_len`]`(params.lk.window)` values. See the module example.
-    /// On an error raised while tracking, every node of the grid is reset to
-    /// [`GridNode::EMPTY`]: no node is left from the previous frame beside this one's.
+    /// Every refusal comes before the first node is written, so an error leaves `nodes` as
+    /// they were.
     pub fn compute(
         &self,
         prev: &Pyramid<'_>,
@@ -660,27 +660,15 @@ impl DenseFlow {
     ) -> Result<DenseSummary, DenseError> {
         let layout = self.check(prev, next, nodes.len(), scratch.len())?;
         let mut tracked = 0usize;
-        let mut failed = None;
         for (index, node) in nodes.iter_mut().take(layout.len()).enumerate() {
             let (col, row) = layout.node(index);
             let centre = layout.centre(col, row);
-            match self.track_node(prev, next, centre, predict, scratch) {
-                Ok(tracked_node) => *node = tracked_node,
-                Err(e) => {
-                    failed = Some(e);
-                    break;
-                }
-            }
+            // LK refuses only frames of two sizes and a short scratch, both refused by `check`
+            // above: no node is written before an error.
+            let tracked_node = self.track_node(prev, next, centre, predict, scratch);
+            debug_assert!(tracked_node.is_ok(), "LK refused what check() let through");
+            *node = tracked_node?;
             tracked = tracked.saturating_add(usize::from(node.is_valid()));
-        }
-        if let Some(e) = failed {
-            // Nodes of this frame before the error beside the last frame's after it would
-            // read as one field: none is kept.
-            nodes
-                .iter_mut()
-                .take(layout.len())
-                .for_each(|n| *n = GridNode::EMPTY);
-            return Err(e);
         }
         // `check` refused a node slice shorter than the layout.
         let filled = fill_invalid(&layout, nodes, self.params.fill_passes)?;

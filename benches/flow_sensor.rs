@@ -15,7 +15,9 @@
 //! image content moved from the first frame to the second), or `None` for no flow. Every
 //! estimator in `estimators()` runs on the same rendered frames.
 
-use host_sim::sensor::{centre_motion, kestrel_preset, px4flow_block_matching, Estimator};
+use host_sim::sensor::{
+    centre_motion, kestrel_preset, percentile, px4flow_block_matching, Estimator,
+};
 use host_sim::synth::{FlightPath, FlightSequence, SceneSpec};
 use host_sim::Frame;
 
@@ -150,12 +152,6 @@ fn centre_flow_errors(flight: &FlightFrames, estimator: &mut Estimator) -> Stats
         errors,
         pairs: flight.truth.len(),
     }
-}
-
-/// The `q` quantile of `sorted` (nearest rank), `None` when it is empty.
-fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
-    let rank = (q * sorted.len() as f64).ceil() as usize;
-    sorted.get(rank.clamp(1, sorted.len().max(1)) - 1).copied()
 }
 
 fn px(value: Option<f64>) -> String {

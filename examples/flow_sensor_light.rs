@@ -30,7 +30,9 @@
 
 use std::time::Instant;
 
-use host_sim::sensor::{centre_motion, kestrel_preset_rated, px4flow_rated, RatedEstimator};
+use host_sim::sensor::{
+    centre_motion, kestrel_preset_rated, percentile, px4flow_rated, RatedEstimator,
+};
 use host_sim::synth::{Camera, FlightPath, FlightSequence, Light, SceneSpec, Shutter};
 use host_sim::Frame;
 
@@ -182,12 +184,6 @@ impl Stats {
                 .map_or_else(|| "-".to_string(), |q| format!("{q:.0}")),
         )
     }
-}
-
-/// The `q` quantile of `sorted` (nearest rank), `None` when it is empty.
-fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
-    let rank = (q * sorted.len() as f64).ceil() as usize;
-    sorted.get(rank.clamp(1, sorted.len().max(1)) - 1).copied()
 }
 
 fn px(value: Option<f64>) -> String {

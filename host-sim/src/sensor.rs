@@ -143,3 +143,18 @@ pub fn centre_motion(flight: &Flight, from: usize, to: usize) -> (f64, f64) {
     let (x, y) = pair.apply(cx, cy);
     (x - cx, y - cy)
 }
+
+/// The `q` quantile of `sorted` errors (nearest rank, `q` from 0 to 1), `None` when there are
+/// none: the median and p90 the flow-sensor comparisons report.
+///
+/// ```
+/// use host_sim::sensor::percentile;
+/// let errors = [0.1, 0.2, 0.3, 0.4, 1.5];
+/// assert_eq!(percentile(&errors, 0.5), Some(0.3));
+/// assert_eq!(percentile(&errors, 0.9), Some(1.5));
+/// assert_eq!(percentile(&[], 0.5), None);
+/// ```
+pub fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
+    let rank = (q * sorted.len() as f64).ceil() as usize;
+    sorted.get(rank.clamp(1, sorted.len().max(1)) - 1).copied()
+}

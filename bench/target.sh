@@ -34,3 +34,10 @@ if [ "$status" -ne 0 ]; then
     exit 1
 fi
 python3 "$root/bench/target_report.py" "$elf" "$root/memory.x" "$log"
+# The flow sensor's OPTICAL_FLOW_RAD frames, byte for byte: tests/flow_sensor_firmware.rs gets
+# the same from the library on the host.
+readouts="$root/tests/data/flow_sensor_firmware.txt"
+if ! diff -u "$readouts" <(grep '^sensor_readout ' "$log" | cut -d' ' -f2) >&2; then
+    echo "error: the firmware's flow-sensor readouts differ from $readouts" >&2
+    exit 1
+fi

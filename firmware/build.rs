@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 // The firmware uses the rest of the scene: the camera model and the frame interval.
 #[allow(dead_code)]
 #[path = "src/scene.rs"]
-mod scene;
+pub mod scene;
 
 /// Plane waves under the blocks: amplitude (grey levels), wavelength (px), direction
 /// (degrees), phase (radians). They give every dense-grid window some texture in both axes.
@@ -62,7 +62,7 @@ fn place_memory_layout(out: &Path) -> Result<(), Box<dyn Error>> {
 
 /// Every frame, packed, one after the other: in frame `k` the background has moved by `k`
 /// times the camera's motion and the object sits at [`scene::object_origin_millipx`]`(k)`.
-fn render_frames() -> Vec<u8> {
+pub fn render_frames() -> Vec<u8> {
     let blocks = blocks();
     let millipx = |v: i32| f64::from(v) / 1000.0;
     let (mx, my) = scene::MOTION_MILLIPX;

@@ -7,10 +7,12 @@
 //! 3. [`detect`]: FAST-9 and Shi-Tomasi corners, spread over the frame by a grid.
 //! 4. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
 //! 5. [`track`]: the KLT track manager: detection, tracking, outlier rejection, refill, ids.
-//! 6. [`dense`]: LK on a regular grid, the camera's dominant motion, and the boxes of what
-//!    moves besides it.
-//! 7. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
+//! 6. [`ego`]: the camera's motion from the tracks (robust model fitting), gyro derotation,
 //!    and the autopilot's OPTICAL_FLOW_RAD output.
+//! 7. [`dense`]: LK on a regular grid, the camera's dominant motion, and the boxes of what
+//!    moves besides it.
+//! 8. [`sensor`]: the flow sensor, frames in and the autopilot's readings out, as one type
+//!    over the tracker and ego-motion.
 //!
 //! [`dsp`] holds the Cortex-M4 DSP instructions (USADA8, UHADD8, SMLAD) with their portable
 //! equivalents.
@@ -80,6 +82,7 @@ pub mod lk;
 )]
 pub mod pyramid;
 pub mod q16;
+pub mod sensor;
 pub mod track;
 
 pub use frame::ImageView;

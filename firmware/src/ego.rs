@@ -1,16 +1,16 @@
 //! The camera's motion from the tracks, and what the autopilot gets from it: an
 //! OPTICAL_FLOW_RAD reading per frame pair, encoded as a MAVLink 2 frame.
 //!
-//! The tracker reports where each track is now; the positions of the previous frame are kept
-//! here by track id, so that each track followed into the new frame gives one correspondence.
+//! The tracker gives each track followed into the new frame as one correspondence
+//! ([`Tracker::correspondences`]).
 
 use heapless::Vec;
 use kestrel::ego::mavlink::{encode_optical_flow_rad, EncodeError, MavlinkHeader, MAX_FRAME_LEN};
 use kestrel::ego::{
-    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, OpticalFlow,
-    OpticalFlowRad, Ransac, RansacParams,
+    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, OpticalFlowRad,
+    Ransac, RansacParams,
 };
-use kestrel::track::Track;
+use kestrel::track::Tracker;
 use kestrel::Point;
 
 use crate::pipeline::{FrameError, MAX_TRACKS};
@@ -28,17 +28,10 @@ pub struct Ego {
     ransac: Ransac,
     camera: Camera,
     accumulator: FlowRadAccumulator,
-    /// The previous frame's track positions, by ascending id.
-    history: Vec<(u32, Point), MAX_TRACKS>,
     /// The latest frame pair's correspondences, and which of them the model explains.
     pairs: Vec<(Point, Point), MAX_TRACKS>,
     inliers: [bool; MAX_TRACKS],
-    /// The latest reading and its MAVLink frame.
-    reading: OpticalFlowRad,
-    frame: [u8; MAX_FRAME_LEN],
-    frame_len: usize,
-    sequence: u8,
-    time_usec: u64,
+    readout: Readout,
 }
 
 impl Ego {
@@ -55,50 +48,35 @@ impl Ego {
             ransac,
             camera,
             accumulator: FlowRadAccumulator::new(camera, SENSOR_ID),
-            history: Vec::new(),
             pairs: Vec::new(),
             inliers: [false; MAX_TRACKS],
-            reading: OpticalFlowRad::default(),
-            frame: [0; MAX_FRAME_LEN],
-            frame_len: 0,
-            sequence: 0,
-            time_usec: 0,
+            readout: Readout::default(),
         })
-    }
-
-    /// Keeps the tracks' positions for the next frame.
-    pub fn remember(&mut self, tracks: &[Track]) {
-        self.history.clear();
-        for track in tracks {
-            // The tracker holds at most MAX_TRACKS tracks: the push cannot fail.
-            let _ = self.history.push((track.id, track.position));
-        }
-        self.history.sort_unstable_by_key(|&(id, _)| id);
     }
 
     /// Fits the camera's motion to the tracks followed into this frame, integrates it into
     /// the flow reading, reads it out and encodes it.
     pub fn estimate(
         &mut self,
-        tracks: &[Track],
+        tracker: &Tracker<'_, MAX_TRACKS>,
     ) -> Result<(EgoMotion, OpticalFlowRad), FrameError> {
-        self.pair(tracks);
-        self.remember(tracks);
+        tracker.correspondences(&mut self.pairs);
         let inliers = self.inliers.get_mut(..self.pairs.len()).unwrap_or(&mut []);
         let motion = self
             .ransac
             .estimate(&self.pairs, inliers)
             .map_err(FrameError::Ego)?;
         self.accumulator.add(&motion, FRAME_INTERVAL_US, None);
-        self.read_out().map_err(FrameError::Mavlink)?;
-        Ok((motion, self.reading))
+        let reading = self.readout.take(&mut self.accumulator);
+        reading.map_err(FrameError::Mavlink)?;
+        Ok((motion, self.readout.reading))
     }
 
     /// The reading of a refused frame: the integration is spoilt, so its quality is 0.
     pub fn refuse(&mut self) -> Result<(), EncodeError> {
         let refused = EgoMotion::failed(ModelKind::Homography, EgoStatus::BadInput);
         self.accumulator.add(&refused, FRAME_INTERVAL_US, None);
-        self.read_out()
+        self.readout.take(&mut self.accumulator).map(|_| ())
     }
 
     /// The latest frame pair's correspondences.
@@ -108,40 +86,62 @@ impl Ego {
 
     /// The latest reading and its MAVLink frame.
     pub fn latest(&self) -> (&OpticalFlowRad, &[u8]) {
-        (
-            &self.reading,
-            self.frame.get(..self.frame_len).unwrap_or(&[]),
-        )
-    }
-
-    /// The latest reading as OPTICAL_FLOW: the same integration, in ArduPilot's message.
-    pub fn optical_flow(&self) -> OpticalFlow {
-        self.accumulator.optical_flow(&self.reading)
+        self.readout.latest()
     }
 
     /// The camera's focal length, px.
     pub fn focal_length(&self) -> f32 {
         self.camera.params().focal_x
     }
+}
 
-    /// Pairs every track followed into this frame with its position in the previous one.
-    fn pair(&mut self, tracks: &[Track]) {
-        self.pairs.clear();
-        for track in tracks.iter().filter(|t| t.age > 0) {
-            let Ok(at) = self.history.binary_search_by_key(&track.id, |&(id, _)| id) else {
-                continue;
-            };
-            if let Some(&(_, before)) = self.history.get(at) {
-                // At most one pair per track: the push cannot fail either.
-                let _ = self.pairs.push((before, track.position));
-            }
+/// The readings sent to the autopilot, one per frame pair as a flow sensor at the camera's frame
+/// rate would send, each with its MAVLink frame.
+pub struct Readout {
+    /// The latest reading and its MAVLink frame.
+    pub reading: OpticalFlowRad,
+    frame: [u8; MAX_FRAME_LEN],
+    frame_len: usize,
+    sequence: u8,
+    time_usec: u64,
+}
+
+impl Default for Readout {
+    fn default() -> Self {
+        Self {
+            reading: OpticalFlowRad::default(),
+            frame: [0; MAX_FRAME_LEN],
+            frame_len: 0,
+            sequence: 0,
+            time_usec: 0,
         }
     }
+}
 
-    /// One reading per frame pair, as a flow sensor at the camera's frame rate would send.
-    fn read_out(&mut self) -> Result<(), EncodeError> {
+impl Readout {
+    /// Reads `accumulator` out a frame interval after the last readout and encodes it.
+    pub fn take(
+        &mut self,
+        accumulator: &mut FlowRadAccumulator,
+    ) -> Result<&OpticalFlowRad, EncodeError> {
         self.time_usec += u64::from(FRAME_INTERVAL_US);
-        self.reading = self.accumulator.readout(self.time_usec);
+        self.reading = accumulator.readout(self.time_usec);
+        self.encode()
+    }
+
+    /// The time stamp of the next readout: a frame interval after the last.
+    pub fn next_time(&mut self) -> u64 {
+        self.time_usec += u64::from(FRAME_INTERVAL_US);
+        self.time_usec
+    }
+
+    /// Keeps `reading` as the latest and encodes it.
+    pub fn keep(&mut self, reading: OpticalFlowRad) -> Result<&OpticalFlowRad, EncodeError> {
+        self.reading = reading;
+        self.encode()
+    }
+
+    fn encode(&mut self) -> Result<&OpticalFlowRad, EncodeError> {
         let header = MavlinkHeader {
             system_id: SYSTEM_ID,
             component_id: COMPONENT_ID,
@@ -149,11 +149,19 @@ impl Ego {
         };
         self.sequence = self.sequence.wrapping_add(1);
         self.frame_len = encode_optical_flow_rad(&self.reading, header, &mut self.frame)?;
-        Ok(())
+        Ok(&self.reading)
+    }
+
+    /// The latest reading and its MAVLink frame.
+    pub fn latest(&self) -> (&OpticalFlowRad, &[u8]) {
+        (
+            &self.reading,
+            self.frame.get(..self.frame_len).unwrap_or(&[]),
+        )
     }
 }
 
 /// The field of view in radians.
-fn fov_radians() -> f32 {
+pub fn fov_radians() -> f32 {
     FIELD_OF_VIEW_DEGREES * core::f32::consts::PI / 180.0
 }

@@ -203,9 +203,7 @@ impl Pipeline {
         };
         let report = self.track(prev, next, meter, times)?;
         self.previous = Some(next);
-        let (motion, flow) = times.run(meter, Stage::Ego, || {
-            self.ego.estimate(self.tracker.tracks())
-        })?;
+        let (motion, flow) = times.run(meter, Stage::Ego, || self.ego.estimate(&self.tracker))?;
         let (prev, next) = self
             .tracker
             .pyramids(prev, next)
@@ -237,7 +235,6 @@ impl Pipeline {
         let report = times
             .run(meter, Stage::Refill, || tracker.start(frame))
             .map_err(FrameError::Track)?;
-        self.ego.remember(self.tracker.tracks());
         self.previous = Some(frame);
         Ok(report)
     }

@@ -10,18 +10,23 @@
 //! heartbeat every second; those frames are sent, not checked here (`bench/mavlink_link.sh`
 //! checks every message on the host).
 
+use core::fmt::Write;
+
 use cortex_m_semihosting::hprintln;
-use kestrel::ego::ModelKind;
+use heapless::String;
+use kestrel::ego::mavlink::MAX_FRAME_LEN;
+use kestrel::ego::{CameraParams, OpticalFlow};
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
-use kestrel::track::{tracker_storage_len, Tracker, TrackerConfig};
+use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError, SensorStage};
+use kestrel::track::{tracker_storage_len, TrackerConfig};
 
 use crate::bad_input;
 use crate::camera;
 use crate::checks::{flow_error, flow_tolerance, frame_quality};
-use crate::ego::Ego;
+use crate::ego::{fov_radians, Readout};
 use crate::link::{Link, SendCost};
-use crate::meter::{instructions, Meter};
+use crate::meter::{instructions, Meter, Stopwatch, Ticks};
 use crate::pipeline::{FrameError, TrackerMemory};
 use crate::report::Micro;
 use crate::scene::{FRAMES, FRAME_INTERVAL_US, HEIGHT, WIDTH};
@@ -43,67 +48,115 @@ const LK_SCRATCH_LEN: usize = scratch_len(CONFIG.lk.window);
 /// The preset's buffers; FAST needs no detection scratch.
 pub type SensorMemory = TrackerMemory<STORAGE_LEN, LK_SCRATCH_LEN, 0, CANDIDATES>;
 
-/// The flow sensor: the preset's tracker and its motion fit.
+/// The library's flow sensor over the scene's camera, and what the autopilot is sent.
 struct Sensor<'m> {
-    tracker: Tracker<'static, TRACKS>,
-    ego: Ego,
+    sensor: FlowSensor<'static, TRACKS>,
     previous: Option<ImageView<'static>>,
+    readout: Readout,
     meter: &'m Meter,
     /// The latest frame's motion fit, reading and MAVLink frame.
     ego_instructions: u64,
 }
 
 impl<'m> Sensor<'m> {
-    fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, FrameError> {
-        let tracker =
-            Tracker::new(CONFIG, WIDTH, HEIGHT, memory.buffers()).map_err(FrameError::Track)?;
+    fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, FlowSensorError> {
+        let camera = CameraParams::from_horizontal_fov(WIDTH as u16, HEIGHT as u16, fov_radians());
+        let config = FlowSensorConfig::new(camera);
         Ok(Self {
-            tracker,
-            ego: Ego::new(ModelKind::Similarity)?,
+            sensor: FlowSensor::new(config, WIDTH, HEIGHT, memory.buffers())?,
             previous: None,
+            readout: Readout::default(),
             meter,
             ego_instructions: 0,
         })
     }
 
     /// One frame: tracked from the previous one, fitted and read out; a refused frame reads
-    /// out with quality 0 and leaves the tracker as it was.
+    /// out with quality 0 and leaves the tracker as it was. True when the frame was tracked
+    /// (not the first).
     fn frame(&mut self, pixels: &'static [u8], size: (usize, usize)) -> Result<bool, FrameError> {
         let outcome = self.track(pixels, size);
-        if outcome.is_err() {
-            self.ego.refuse().map_err(FrameError::Mavlink)?;
+        if outcome != Ok(false) {
+            let sensor = &mut self.sensor;
+            let readout = &mut self.readout;
+            let (kept, ticks) = self.meter.measure(|| {
+                let reading = sensor.readout(readout.next_time());
+                readout.keep(reading).map(|_| ())
+            });
+            kept.map_err(FrameError::Mavlink)?;
+            self.ego_instructions += instructions(ticks);
         }
         outcome
     }
 
-    /// True when the frame was tracked (not the first).
     fn track(&mut self, pixels: &'static [u8], (w, h): (usize, usize)) -> Result<bool, FrameError> {
-        let next = ImageView::packed(pixels, w, h).map_err(FrameError::Image)?;
+        // The sensor refuses the frames it is given itself; one that is not a frame at all is
+        // refused here, to the same effect.
+        let next = match ImageView::packed(pixels, w, h) {
+            Ok(next) => next,
+            Err(e) => {
+                self.sensor.refuse(FRAME_INTERVAL_US);
+                return Err(FrameError::Image(e));
+            }
+        };
         let Some(prev) = self.previous else {
-            self.tracker.start(next).map_err(FrameError::Track)?;
-            self.ego.remember(self.tracker.tracks());
+            self.sensor.start(next).map_err(frame_error)?;
             self.previous = Some(next);
             return Ok(false);
         };
-        self.tracker
-            .process(prev, next, None)
-            .map_err(FrameError::Track)?;
+        let mut watch = Stopwatch::start(self.meter);
+        let mut fit = Ticks(0);
+        let step = self
+            .sensor
+            .process_observed(prev, next, FRAME_INTERVAL_US, None, |stage| {
+                let lap = watch.lap();
+                if stage == SensorStage::Fit {
+                    fit = lap;
+                }
+            });
+        self.ego_instructions = instructions(fit);
+        step.map_err(frame_error)?;
         self.previous = Some(next);
-        let ego = &mut self.ego;
-        let tracks = self.tracker.tracks();
-        let (fit, ticks) = self.meter.measure(|| ego.estimate(tracks));
-        fit?;
-        self.ego_instructions = instructions(ticks);
         Ok(true)
+    }
+
+    /// The latest reading as OPTICAL_FLOW.
+    fn optical_flow(&self) -> OpticalFlow {
+        self.sensor.optical_flow(&self.readout.reading)
+    }
+
+    fn focal_length(&self) -> f32 {
+        self.sensor.camera().params().focal_x
+    }
+}
+
+/// The library's refusal as the harness's: the same causes as the budget run's pipeline.
+fn frame_error(e: FlowSensorError) -> FrameError {
+    match e {
+        FlowSensorError::Tracker(e) => FrameError::Track(e),
+        FlowSensorError::Ransac(e) => FrameError::Ego(e),
+        FlowSensorError::Camera(e) => FrameError::Camera(e),
     }
 }
 
 /// Sends the latest readout on `link`, timed into `cost`.
 fn send(sensor: &Sensor<'_>, link: &mut Link, cost: &mut SendCost) {
-    let (rad, _) = sensor.ego.latest();
-    let flow = sensor.ego.optical_flow();
+    let (rad, _) = sensor.readout.latest();
+    let flow = sensor.optical_flow();
     let ((), ticks) = sensor.meter.measure(|| link.send(rad, &flow));
     cost.add(instructions(ticks));
+}
+
+/// Prints the latest readout's OPTICAL_FLOW_RAD frame in hex: `tests/flow_sensor_firmware.rs`
+/// runs the library's flow sensor on the same frames on the host and must get these bytes.
+fn print_readout(sensor: &Sensor<'_>) {
+    let (_, frame) = sensor.readout.latest();
+    let mut hex: String<{ 2 * MAX_FRAME_LEN }> = String::new();
+    for byte in frame {
+        // Two digits per byte of at most MAX_FRAME_LEN: the string has room.
+        let _ = write!(hex, "{byte:02x}");
+    }
+    hprintln!("sensor_readout {}", hex.as_str());
 }
 
 /// Runs the preset over the sequence with the budget run's bad input after frame 5, sending
@@ -119,7 +172,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
             return false;
         }
     };
-    let focal = sensor.ego.focal_length();
+    let focal = sensor.focal_length();
     let mut cost = SendCost::default();
     let (mut ok, mut total, mut worst, mut frames, mut worst_error) = (true, 0, 0, 0, 0.0f32);
     for index in 0..FRAMES {
@@ -128,17 +181,18 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
         let spent = instructions(ticks);
         if outcome != Ok(false) {
             send(&sensor, link, &mut cost);
+            print_readout(&sensor);
         }
         match outcome {
             Ok(true) => {
-                let (flow, _) = sensor.ego.latest();
+                let (flow, _) = sensor.readout.latest();
                 let error = flow_error(flow, focal);
                 hprintln!(
                     "sensor_frame {} instructions={} ego={} tracks={} quality={} flow_error={}",
                     index,
                     spent,
                     sensor.ego_instructions,
-                    sensor.tracker.tracks().len(),
+                    sensor.sensor.tracks().len(),
                     flow.quality,
                     Micro(error)
                 );
@@ -165,7 +219,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
         worst,
         frames,
         Micro(worst_error * focal),
-        sensor.tracker.tracks().len()
+        sensor.sensor.tracks().len()
     );
     fly(&mut sensor, link, &mut cost);
     ok
@@ -174,7 +228,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
 /// Flies the frames back and forth after the sequence, sending every readout, until
 /// [`LINK_SECONDS_US`] of frame clock have passed; prints the link's record.
 fn fly(sensor: &mut Sensor<'_>, link: &mut Link, cost: &mut SendCost) {
-    let mut clock = sensor.ego.latest().0.time_usec;
+    let mut clock = sensor.readout.latest().0.time_usec;
     let mut position = FRAMES;
     let mut errors = 0u32;
     while clock < LINK_SECONDS_US {
@@ -190,7 +244,7 @@ fn fly(sensor: &mut Sensor<'_>, link: &mut Link, cost: &mut SendCost) {
             errors += 1;
         }
         send(sensor, link, cost);
-        clock = sensor.ego.latest().0.time_usec;
+        clock = sensor.readout.latest().0.time_usec;
         position += 1;
     }
     link.pump();
@@ -227,7 +281,8 @@ fn refuses_bad_input(
     for case in bad_input::cases(good) {
         let outcome = sensor.frame(case.pixels, case.size).map(|_| ());
         send(sensor, link, cost);
-        let (flow, mavlink) = sensor.ego.latest();
+        print_readout(sensor);
+        let (flow, mavlink) = sensor.readout.latest();
         let refused =
             outcome == Err(case.expected) && flow.quality == 0 && frame_quality(mavlink) == 0;
         hprintln!(

@@ -117,6 +117,7 @@ impl Follow<'_, '_> {
                     let step = fwd.step.position;
                     let moved = Track {
                         position,
+                        previous: track.position,
                         residual: fwd.step.residual,
                         age: track.age.saturating_add(1),
                         velocity: offset(step, Point::default(), track.position),

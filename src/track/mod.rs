@@ -144,6 +144,9 @@ pub struct Track {
     pub id: u32,
     /// Position in the latest frame, px.
     pub position: Point,
+    /// Position in the frame before, px (its position, on its first frame): with
+    /// [`Track::position`], the track's correspondence between the two frames.
+    pub previous: Point,
     /// Frames the track has been followed through since it was detected (0 on its first frame).
     pub age: u32,
     /// Mean absolute residual of the latest step, grey levels (0 on its first frame).
@@ -620,6 +623,54 @@ impl<'a, const N: usize> Tracker<'a, N> {
         &self.set.tracks
     }
 
+    /// The correspondences of the latest frame pair, into `pairs` (cleared first): each track
+    /// followed into the latest frame, as (where it was in the frame before, where it is now).
+    /// Tracks born in the latest frame have no step and give none. This is what ego-motion
+    /// ([`crate::ego::Ransac::estimate`]) fits the camera's motion to.
+    ///
+    /// ```
+    /// use heapless::Vec;
+    /// use kestrel::track::{Tracker, TrackerConfig};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+    /// # use kestrel::{detect::Corner, lk::scratch_len};
+    /// # let mut storage = [0u8; tracker_storage_len(64, 64, 3)];
+    /// # let mut lk_scratch = [0i16; scratch_len(21)];
+    /// # let mut detect_scratch = [0i32; detect_scratch_len(64, 1, 24)];
+    /// # let mut candidates = [Corner::default(); 24];
+    /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::Point;
+    /// // Smooth blobs on a 66 x 64 canvas; the second frame is the first moved 2 px left.
+    /// let canvas: [u8; 66 * 64] = core::array::from_fn(|i| {
+    ///     let (x, y) = ((i % 66) as f32, (i / 66) as f32);
+    ///     (128.0 + 60.0 * (x * 0.45).sin() * (y * 0.38).cos() + 40.0 * (x * 0.21 + y * 0.3).sin()) as u8
+    /// });
+    /// let first = ImageView::new(&canvas, 64, 64, 66).unwrap();
+    /// let second = ImageView::new(&canvas[2..], 64, 64, 66).unwrap();
+    /// let config = TrackerConfig { max_tracks: 8, refill_below: 8, ..TrackerConfig::default() };
+    /// let mut tracker = Tracker::<8>::new(config, 64, 64, buffers).unwrap();
+    /// tracker.start(first).unwrap();
+    /// let mut pairs: Vec<(Point, Point), 8> = Vec::new();
+    /// tracker.correspondences(&mut pairs);
+    /// assert!(pairs.is_empty(), "no step yet");
+    /// tracker.process(first, second, None).unwrap();
+    /// tracker.correspondences(&mut pairs);
+    /// assert!(pairs.len() >= 4);
+    /// for (before, now) in &pairs {
+    ///     let (dx, dy) = (now.x - before.x, now.y - before.y);
+    ///     assert!((dx.to_num::<f32>() + 2.0).abs() < 0.1 && dy.to_num::<f32>().abs() < 0.1);
+    /// }
+    /// ```
+    pub fn correspondences(&self, pairs: &mut Vec<(Point, Point), N>) {
+        pairs.clear();
+        for track in self.set.tracks.iter().filter(|t| t.age > 0) {
+            // At most N tracks, so at most N pairs.
+            let pushed = pairs.push((track.previous, track.position));
+            debug_assert!(pushed.is_ok(), "more tracks than the tracker's capacity");
+        }
+    }
+
     /// The index of the latest frame (counted from 0, wrapping after 2^32 frames), or `None`
     /// before the first.
     ///
@@ -737,6 +788,7 @@ impl<const N: usize> TrackSet<N> {
         let track = Track {
             id: self.next_id,
             position,
+            previous: position,
             age: 0,
             residual: Q16::ZERO,
             born,

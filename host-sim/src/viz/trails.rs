@@ -109,6 +109,7 @@ mod tests {
         Track {
             id,
             position: Point::from_f32(x, y),
+            previous: Point::from_f32(x, y),
             ..Track::default()
         }
     }

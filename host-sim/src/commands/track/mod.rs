@@ -265,6 +265,7 @@ mod tests {
         let tracks = [Track {
             id: 7,
             position: Point::from_f32(1.5, 2.25),
+            previous: Point::from_f32(1.5, 2.25),
             age: 3,
             residual: Q16::from_num(0.5),
             born: 2,

@@ -16,10 +16,10 @@
 //! ```
 
 use kestrel::detect::Corner;
-use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
+use kestrel::ego::{CameraParams, EgoStatus};
 use kestrel::lk::scratch_len;
-use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
-use kestrel::Point;
+use kestrel::sensor::{FlowSensor, FlowSensorConfig};
+use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig};
 use px4flow::{BlockMatcher, Config, Workspace};
 
 use crate::synth::Flight;
@@ -67,10 +67,11 @@ pub fn px4flow_rated() -> RatedEstimator {
     })
 }
 
-/// `TrackerConfig::flow_sensor()` on one frame pair, started cold on the first frame (no motion
-/// known, so every track is searched on both levels and checked forward-backward), with the
-/// similarity fit the firmware's sensor uses; the flow is where the fit moves the principal
-/// point. `None` when the frames cannot be tracked or the fit fails.
+/// The library's flow sensor (`kestrel::sensor::FlowSensor`, the firmware's: the
+/// `TrackerConfig::flow_sensor()` tracker and a similarity fit) on one frame pair, started cold
+/// on the first frame (no motion known, so every track is searched on both levels and checked
+/// forward-backward); the flow is where the fit moves the principal point. `None` when the
+/// frames cannot be tracked or the fit fails.
 pub fn kestrel_preset() -> Estimator {
     unrated(kestrel_preset_rated())
 }
@@ -83,11 +84,6 @@ pub fn kestrel_preset_rated() -> RatedEstimator {
     let mut storage = Vec::new();
     let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
     let mut candidates = vec![Corner::default(); 3 * TRACKS];
-    let ransac = Ransac::new(RansacParams {
-        model: ModelKind::Similarity,
-        ..RansacParams::default()
-    })
-    .expect("the similarity fit's settings are valid");
     Box::new(move |prev: &Frame, next: &Frame| {
         let (prev, next) = (prev.view().ok()?, next.view().ok()?);
         let (width, height) = (prev.width(), prev.height());
@@ -101,24 +97,15 @@ pub fn kestrel_preset_rated() -> RatedEstimator {
             detect_scratch: &mut [],
             candidates: &mut candidates,
         };
-        let mut tracker = Tracker::<TRACKS>::new(config, width, height, buffers).ok()?;
-        tracker.start(prev).ok()?;
-        let born: Vec<(u32, Point)> = tracker
-            .tracks()
-            .iter()
-            .map(|t| (t.id, t.position))
-            .collect();
-        tracker.process(prev, next, None).ok()?;
-        let pairs: Vec<(Point, Point)> = tracker
-            .tracks()
-            .iter()
-            .filter_map(|t| {
-                let (_, before) = born.iter().find(|(id, _)| *id == t.id)?;
-                Some((*before, t.position))
-            })
-            .collect();
-        let mut inliers = vec![false; pairs.len()];
-        let motion = ransac.estimate(&pairs, &mut inliers).ok()?;
+        let size = |v: usize| u16::try_from(v).ok();
+        let fov = std::f32::consts::FRAC_PI_3;
+        let camera = CameraParams::from_horizontal_fov(size(width)?, size(height)?, fov);
+        let mut sensor =
+            FlowSensor::<TRACKS>::new(FlowSensorConfig::new(camera), width, height, buffers)
+                .ok()?;
+        sensor.start(prev).ok()?;
+        // The interval only scales the reading; the flow in pixels is the motion's.
+        let motion = sensor.process(prev, next, 10_000, None).ok()?.motion;
         if motion.status != EgoStatus::Ok {
             return None;
         }

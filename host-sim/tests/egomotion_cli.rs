@@ -89,6 +89,7 @@ struct EgoRow {
     h: Homography,
     inliers: usize,
     quality: u8,
+    tracked: usize,
     integrated_x: f64,
     status: String,
 }
@@ -121,6 +122,7 @@ fn read_ego(path: &Path) -> Vec<EgoRow> {
                 },
                 inliers: f[10].parse().unwrap(),
                 quality: f[11].parse().unwrap(),
+                tracked: f[12].parse().unwrap(),
                 integrated_x: number(14),
                 status: f[16].to_owned(),
             }
@@ -580,6 +582,79 @@ fn a_frame_of_another_size_stops_egomotion_and_keeps_the_pairs_before_it() {
     // A heartbeat and two frames per pair, the last one complete.
     let bytes = fs::read(&mavlink).unwrap();
     assert_eq!(mavlink_frames(&bytes).len(), 1 + 2 * 3);
+}
+
+/// `--preset flow-sensor` is the library's flow sensor, the firmware's pipeline: its rows are
+/// what `kestrel::sensor::FlowSensor` reads out on the same frames, bit for bit, from at most
+/// the preset's 25 tracks kept from frame to frame.
+#[test]
+fn the_flow_sensor_preset_is_the_librarys_flow_sensor() {
+    use kestrel::detect::Corner;
+    use kestrel::ego::CameraParams;
+    use kestrel::lk::scratch_len;
+    use kestrel::sensor::{FlowSensor, FlowSensorConfig};
+    use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig};
+
+    let scratch = Scratch::new("preset");
+    let (width, height) = (160, 120);
+    let sequence = FlightSequence::new(SceneSpec::new(width, height, 2), FlightPath::Pan, 0);
+    let frames = 12;
+    let rows = egomotion_on_flight(&scratch, &sequence, frames, &[&"--preset", &"flow-sensor"]);
+
+    const PRESET: TrackerConfig = TrackerConfig::flow_sensor();
+    let mut storage = vec![0u8; tracker_storage_len(width, height, PRESET.pyramid_levels())];
+    let mut lk_scratch = vec![0i16; scratch_len(PRESET.lk.window)];
+    let mut candidates = vec![Corner::default(); 3 * PRESET.max_tracks];
+    let buffers = TrackerBuffers {
+        storage: &mut storage,
+        lk_scratch: &mut lk_scratch,
+        detect_scratch: &mut [],
+        candidates: &mut candidates,
+    };
+    let fov = std::f32::consts::FRAC_PI_3;
+    let camera = CameraParams::from_horizontal_fov(width as u16, height as u16, fov);
+    let config = FlowSensorConfig::new(camera);
+    let mut sensor = FlowSensor::<25>::new(config, width, height, buffers).unwrap();
+    let frame = |k: usize| sequence.frame(k);
+    let first = frame(0);
+    sensor.start(first.view().unwrap()).unwrap();
+    for (k, row) in (1..frames).zip(&rows) {
+        let (prev, next) = (frame(k - 1), frame(k));
+        let step = sensor
+            .process(prev.view().unwrap(), next.view().unwrap(), 33_333, None)
+            .unwrap();
+        let reading = sensor.readout(0);
+        // ego.csv writes the shortest text that reads back as the same f32.
+        assert_eq!(row.integrated_x as f32, reading.integrated_x, "frame {k}");
+        assert_eq!(row.quality, reading.quality, "frame {k}");
+        assert_eq!(row.inliers, usize::from(step.motion.inliers), "frame {k}");
+        assert!(row.tracked <= 25 && row.tracked == sensor.pairs().0.len());
+    }
+    // The tracks live on: after the first pair most of them were followed, not detected anew.
+    assert!(rows.iter().skip(1).all(|r| r.tracked >= 15), "{rows:?}");
+    assert!(rows.iter().all(|r| r.status == "ok" && r.quality > 0));
+}
+
+#[test]
+fn a_frame_of_another_size_stops_the_flow_sensor_preset_too() {
+    let scratch = Scratch::new("resize-preset");
+    let input = frames_changing_size(&scratch);
+    let out = scratch.path("ego.csv");
+    let output = host_sim(&[
+        &"egomotion",
+        &input,
+        &"--out",
+        &out,
+        &"--preset",
+        &"flow-sensor",
+    ]);
+    assert_one_line_error(
+        &output,
+        1,
+        &["frame_00004.png", "frame 4", "48x36", "96x72"],
+    );
+    let frames: Vec<usize> = read_ego(&out).iter().map(|r| r.frame).collect();
+    assert_eq!(frames, [1, 2, 3]);
 }
 
 #[test]

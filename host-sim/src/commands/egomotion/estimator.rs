@@ -258,7 +258,7 @@ impl MotionEstimator {
 
 /// The pinhole camera for `width` x `height` frames: principal point at the centre, and the
 /// focal length given or that of a 60 degree horizontal field of view.
-fn camera(focal: Option<f32>, width: usize, height: usize) -> Result<Camera, String> {
+pub(super) fn camera(focal: Option<f32>, width: usize, height: usize) -> Result<Camera, String> {
     let size = |v: usize| u16::try_from(v).map_err(|_| format!("frame side {v} px is too large"));
     let default = CameraParams::from_horizontal_fov(size(width)?, size(height)?, DEFAULT_FOV);
     let params = match focal {

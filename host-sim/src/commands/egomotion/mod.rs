@@ -13,6 +13,7 @@ mod clock;
 mod estimator;
 mod gyro;
 mod link;
+mod sensor;
 
 pub use clock::{FrameClock, Pacer};
 pub use estimator::{
@@ -20,6 +21,7 @@ pub use estimator::{
 };
 pub use gyro::{GyroLog, GyroSample, GYRO_COLUMNS};
 pub use link::{MavlinkDestination, MavlinkLink, SendFailures};
+pub use sensor::{PresetSensor, SensorPair, SensorSettings};
 
 use std::ffi::OsString;
 use std::io::Write;
@@ -37,7 +39,7 @@ use crate::cli::values::{self, path};
 use crate::io::csv::CsvWriter;
 use crate::io::json::one_line;
 use crate::io::{AtomicFile, FrameSource, Progress};
-use crate::tracking::{preset, LkSettings, Preset};
+use crate::tracking::{preset, HostBuffers, LkSettings, Preset};
 use crate::Frame;
 use serde_json::json;
 
@@ -99,9 +101,10 @@ pub struct EgomotionOptions {
     /// results, one row per frame pair (see below)
     #[arg(long, value_name = "ego.csv", value_parser = path)]
     pub out: PathBuf,
-    /// translation, similarity, affine or homography
-    #[arg(long, value_name = "M", default_value = "homography", value_parser = model)]
-    pub model: ModelKind,
+    /// translation, similarity, affine or homography [default: homography; with --preset
+    /// flow-sensor, the sensor's similarity]
+    #[arg(long, value_name = "M", value_parser = model)]
+    pub model: Option<ModelKind>,
     /// focal length in px, 1 to 100000 [default: that of a 60 degree horizontal field of view;
     /// the principal point is the frame centre]
     #[arg(long, value_name = "PX", value_parser = focal)]
@@ -130,17 +133,20 @@ pub struct EgomotionOptions {
     /// points tracked per pair, 8 to 2000 [default: 200; 25 with --preset]
     #[arg(long, value_name = "N", value_parser = max_points)]
     pub max_points: Option<usize>,
-    /// flow-sensor: the LK settings and pyramid of the library's TrackerConfig::flow_sensor()
-    /// (7x7 windows on two levels of a box-mean pyramid, nearest-pixel templates, 10
-    /// iterations) and its 25 points; flags given beside it override it [default: none,
-    /// OpenCV's LK settings]
+    /// flow-sensor: the library's flow sensor (kestrel::sensor::FlowSensor), the pipeline the
+    /// firmware runs: TrackerConfig::flow_sensor()'s tracker (25 tracks kept from frame to
+    /// frame; 7x7 windows on two levels of a box-mean pyramid, nearest-pixel templates, 10
+    /// iterations) and a similarity fit of its tracks; --max-points, --window, --levels,
+    /// --model and --threshold given beside it override it [default: none: corners detected
+    /// afresh in every pair, OpenCV's LK settings]
     #[arg(long, value_name = "NAME", value_parser = preset)]
     pub preset: Option<Preset>,
     #[command(flatten)]
     pub lk: LkSettings,
-    /// RANSAC inlier threshold, 0.05 to 100 px; raise it for blurred or noisy video
-    #[arg(long, value_name = "PX", default_value_t = DEFAULT_THRESHOLD, value_parser = threshold)]
-    pub threshold: f32,
+    /// RANSAC inlier threshold, 0.05 to 100 px; raise it for blurred or noisy video [default:
+    /// 0.5; with --preset flow-sensor, the sensor's 1]
+    #[arg(long, value_name = "PX", value_parser = threshold)]
+    pub threshold: Option<f32>,
     /// write {"frames", "pairs", "mean_tracked_points", "median_pair_seconds",
     /// "mean_pair_seconds"}; per pair the new frame's pyramid, detection, tracking and the fit
     /// are timed, decoding is not
@@ -152,9 +158,9 @@ impl EgomotionOptions {
     /// How motion is measured: the preset's LK and pyramid when given, the flags over them.
     pub fn settings(&self) -> EstimatorSettings {
         let mut settings = EstimatorSettings {
-            model: self.model,
+            model: self.model.unwrap_or(ModelKind::Homography),
             focal: self.focal,
-            threshold: self.threshold,
+            threshold: self.threshold.unwrap_or(DEFAULT_THRESHOLD),
             max_points: self.max_points.unwrap_or(DEFAULT_MAX_POINTS),
             ..EstimatorSettings::default()
         };
@@ -166,6 +172,17 @@ impl EgomotionOptions {
         }
         settings.lk = self.lk.apply(settings.lk);
         settings
+    }
+
+    /// The flow sensor's settings with `--preset`, the flags over them.
+    pub fn sensor_settings(&self) -> Option<SensorSettings> {
+        let preset = SensorSettings::new(self.preset?, self.max_points, &self.lk);
+        Some(SensorSettings {
+            model: self.model,
+            threshold: self.threshold.unwrap_or(preset.threshold),
+            focal: self.focal,
+            ..preset
+        })
     }
 }
 
@@ -275,11 +292,30 @@ pub fn run(options: &EgomotionOptions) -> Result<(), CommandError> {
         .fps
         .or(source.frame_rate())
         .unwrap_or(FrameClock::DEFAULT_FPS);
-    let mut run = SequenceRun::new(options, FrameClock::new(fps), gyro);
-    let mut progress = Progress::new("egomotion", source.frame_count());
+    let frame_count = source.frame_count();
+    let mut frames = source.enumerate().peekable();
+    // The flow sensor's buffers are the caller's, sized by the first frame.
+    let first_size = match frames.peek() {
+        Some((_, Ok(frame))) => Some((frame.width, frame.height)),
+        _ => None,
+    };
+    let sensor_settings = options.sensor_settings();
+    let mut buffers = sensor_settings
+        .zip(first_size)
+        .map(|(settings, (w, h))| HostBuffers::new(&settings.tracker, w, h));
+    let engine = match (sensor_settings, first_size, buffers.as_mut()) {
+        (Some(settings), Some((w, h)), Some(buffers)) => {
+            let sensor = PresetSensor::new(&settings, w, h, buffers)
+                .map_err(|problem| CommandError::Processing(format!("frame 0: {problem}")))?;
+            Engine::Sensor(sensor)
+        }
+        _ => Engine::Pairwise(None),
+    };
+    let mut run = SequenceRun::new(options, FrameClock::new(fps), gyro, engine);
+    let mut progress = Progress::new("egomotion", frame_count);
     let pacer = options.rate.map(Pacer::new);
     let mut failure = None;
-    for (index, frame) in source.enumerate() {
+    for (index, frame) in frames {
         if let Some(pacer) = &pacer {
             pacer.wait(index);
         }
@@ -305,25 +341,37 @@ pub fn run(options: &EgomotionOptions) -> Result<(), CommandError> {
     failure.map_or(Ok(()), Err)
 }
 
+/// What measures the motion of each frame pair.
+enum Engine<'m> {
+    /// Corners detected afresh in every pair, made for the first frame's size (the default).
+    Pairwise(Option<Box<(MotionEstimator, FlowRadAccumulator)>>),
+    /// The library's flow sensor (`--preset`): the firmware's pipeline.
+    Sensor(PresetSensor<'m>),
+}
+
 /// The state carried from frame to frame.
-struct SequenceRun {
+struct SequenceRun<'m> {
     settings: EstimatorSettings,
     clock: FrameClock,
     gyro: Option<GyroLog>,
-    /// Made for the first frame's size.
-    estimator: Option<(MotionEstimator, FlowRadAccumulator)>,
+    engine: Engine<'m>,
     frames: usize,
     pair_seconds: Vec<f64>,
     tracked_total: usize,
 }
 
-impl SequenceRun {
-    fn new(options: &EgomotionOptions, clock: FrameClock, gyro: Option<GyroLog>) -> Self {
+impl<'m> SequenceRun<'m> {
+    fn new(
+        options: &EgomotionOptions,
+        clock: FrameClock,
+        gyro: Option<GyroLog>,
+        engine: Engine<'m>,
+    ) -> Self {
         Self {
             settings: options.settings(),
             clock,
             gyro,
-            estimator: None,
+            engine,
             frames: 0,
             pair_seconds: Vec::new(),
             tracked_total: 0,
@@ -337,27 +385,43 @@ impl SequenceRun {
         let gyro = (index > 0).then(|| self.gyro_over(index)).flatten();
         let interval_us = self.clock.interval_us(index);
         let rotation = gyro.and_then(|g| Rotation::from_integrated_gyro(g, interval_us).ok());
-        let (estimator, accumulator) = match &mut self.estimator {
-            Some(state) => state,
-            None => {
-                let estimator = MotionEstimator::new(&self.settings, frame.width, frame.height)
-                    .map_err(failed)?;
-                let accumulator = FlowRadAccumulator::new(*estimator.camera(), 0);
-                self.estimator.insert((estimator, accumulator))
+        let time_us = self.clock.time_us(index);
+        let start = Instant::now();
+        let (pair, reading, flow, flow_status) = match &mut self.engine {
+            Engine::Sensor(sensor) => {
+                self.frames += 1;
+                let Some(done) = sensor
+                    .push(frame, interval_us, gyro, time_us)
+                    .map_err(failed)?
+                else {
+                    return Ok(None);
+                };
+                self.pair_seconds.push(start.elapsed().as_secs_f64());
+                (done.pair, done.reading, done.flow, done.step.integrated)
+            }
+            Engine::Pairwise(state) => {
+                let (estimator, accumulator) = match state {
+                    Some(state) => &mut **state,
+                    None => {
+                        let estimator =
+                            MotionEstimator::new(&self.settings, frame.width, frame.height)
+                                .map_err(failed)?;
+                        let accumulator = FlowRadAccumulator::new(*estimator.camera(), 0);
+                        &mut **state.insert(Box::new((estimator, accumulator)))
+                    }
+                };
+                self.frames += 1;
+                let Some(pair) = estimator.push(frame, rotation.as_ref()).map_err(failed)? else {
+                    return Ok(None);
+                };
+                self.pair_seconds.push(start.elapsed().as_secs_f64());
+                let flow_status = accumulator.add(&pair.motion, interval_us, gyro);
+                let reading = accumulator.readout(time_us);
+                let flow = accumulator.optical_flow(&reading);
+                (pair, reading, flow, flow_status)
             }
         };
-        self.frames += 1;
-        let start = Instant::now();
-        let Some(pair) = estimator.push(frame, rotation.as_ref()).map_err(failed)? else {
-            return Ok(None);
-        };
-        self.pair_seconds.push(start.elapsed().as_secs_f64());
         self.tracked_total += pair.tracked;
-
-        let flow_status = accumulator.add(&pair.motion, interval_us, gyro);
-        let time_us = self.clock.time_us(index);
-        let reading = accumulator.readout(time_us);
-        let flow = accumulator.optical_flow(&reading);
         let status = match (gyro, rotation) {
             (Some(_), None) => PairStatus::BadGyro,
             _ => PairStatus::Flow(flow_status),
@@ -423,7 +487,7 @@ impl Outputs {
     }
 
     /// Writes the timing summary and commits every file.
-    fn finish(self, run: &SequenceRun) -> Result<(), CommandError> {
+    fn finish(self, run: &SequenceRun<'_>) -> Result<(), CommandError> {
         if let Some(mut stats) = self.stats {
             let summary = timing_summary(run);
             stats
@@ -452,7 +516,7 @@ fn out_error(path: &std::path::Path, error: &std::io::Error) -> crate::io::Outpu
 /// `{"frames": n, "pairs": p, "mean_tracked_points": t, "median_pair_seconds": s,
 /// "mean_pair_seconds": m}`: per pair, the core is building the new frame's pyramid, detecting
 /// in the previous frame, tracking and fitting; decoding and writing are not timed.
-fn timing_summary(run: &SequenceRun) -> String {
+fn timing_summary(run: &SequenceRun<'_>) -> String {
     let pairs = run.pair_seconds.len();
     let mut seconds = run.pair_seconds.clone();
     seconds.sort_by(f64::total_cmp);

@@ -158,9 +158,9 @@ pub fn frame<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Frame<'py>> {
     let strides = array.strides().to_vec();
     let layout_error = || {
         PyValueError::new_err(format!(
-            "{name} has strides {:?} (bytes): the library views rows of contiguous pixels at a \
-             positive row stride of at least the width; pass np.ascontiguousarray({name})",
-            strides
+            "{name} has strides ({}, {}) (bytes): the library views rows of contiguous pixels \
+             at a positive row stride of at least the width; pass np.ascontiguousarray({name})",
+            strides[0], strides[1]
         ))
     };
     if width > 1 && strides[1] != 1 {

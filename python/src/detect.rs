@@ -108,8 +108,8 @@ pub fn good_features_to_track<'py>(
     let frame = arrays::frame(image, "image")?;
     if use_harris_detector {
         return Err(value_error(
-            "use_harris_detector=True is not supported: the library scores corners by the \
-             minimum eigenvalue (Shi-Tomasi) only",
+            "use_harris_detector=True is not supported: the library has no Harris score, only \
+             the minimum eigenvalue (Shi-Tomasi)",
         ));
     }
     if !(0.0..=1.0).contains(&quality_level) {

@@ -146,9 +146,10 @@ pub fn good_features_to_track<'py>(
         min_distance: min_distance as u16,
     };
     let pixels = frame.pixels();
-    // Room for every pixel: the quality level and the spacing then see every local maximum,
-    // as OpenCV's do, and the strongest `max_corners` of the spaced corners are kept.
-    let capacity = pixels.width * pixels.height;
+    // Room for every 3 x 3 local maximum (at most one pixel in four, ties aside): the quality
+    // level and the spacing then see them all, as OpenCV's do, and the strongest `max_corners`
+    // of the spaced corners are kept.
+    let capacity = (pixels.width * pixels.height).div_ceil(4);
     let corners = py
         .detach(|| -> Result<Vec<Corner>, String> {
             let view = pixels.view()?;

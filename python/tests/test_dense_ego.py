@@ -1,6 +1,7 @@
 """dense_flow, flow_to_color, MotionDetector, estimate_motion and FlowSensor."""
 
 import numpy as np
+import pytest
 
 import kestrel
 from conftest import shifted, texture
@@ -107,3 +108,24 @@ def test_flow_sensor_reads_out_the_pan_and_encodes_mavlink():
     assert int.from_bytes(kestrel.heartbeat_mavlink()[7:10], "little") == 0
     # The next readout starts a new integration.
     assert sensor.readout(60_000).integration_time_us == 0
+
+
+def test_mavlink_frames_decode_with_pymavlink():
+    mavlink = pytest.importorskip("pymavlink.dialects.v20.common")
+    bg = texture(9)
+    sensor = kestrel.FlowSensor(sensor_id=3)
+    for k in range(3):
+        sensor.push(np.ascontiguousarray(shifted(bg, 1.0 * k, 0.5 * k)[60:180, 80:240]), 10_000)
+    r = sensor.readout(20_000)
+    parser = mavlink.MAVLink(None)
+    (rad,) = parser.parse_buffer(r.optical_flow_rad_mavlink(system_id=5, sequence=9))
+    assert rad.get_type() == "OPTICAL_FLOW_RAD" and rad.get_srcSystem() == 5
+    assert rad.get_seq() == 9 and rad.sensor_id == 3 and rad.quality == r.quality
+    assert rad.integration_time_us == 20_000
+    assert rad.integrated_x == pytest.approx(r.integrated_x) and rad.integrated_x > 0
+    assert rad.integrated_y == pytest.approx(r.integrated_y) and rad.integrated_y > 0
+    (flow,) = parser.parse_buffer(r.optical_flow_mavlink())
+    assert flow.get_type() == "OPTICAL_FLOW" and flow.quality == r.quality
+    assert (flow.flow_rate_x, flow.flow_rate_y) == pytest.approx(r.flow_rate)
+    (beat,) = parser.parse_buffer(kestrel.heartbeat_mavlink())
+    assert beat.get_type() == "HEARTBEAT" and beat.type == 30  # MAV_TYPE_CAMERA

@@ -22,9 +22,9 @@ def calc_optical_flow_pyr_lk(
     next: Frame,
     prev_pts: Points,
     next_pts: Optional[Points] = None,
-    win_size: Union[Tuple[int, int], int, None] = None,
+    win_size: Union[Tuple[int, int], int, None] = (21, 21),
     max_level: int = 3,
-    criteria: Optional[Tuple[int, int, float]] = None,
+    criteria: Optional[Tuple[int, int, float]] = (3, 30, 0.01),
     flags: int = 0,
     min_eig_threshold: float = 1e-4,
     illumination: Illumination = "gain_bias",
@@ -36,9 +36,9 @@ def calc_optical_flow_pyr_lk(
     next: Frame,
     prev_pts: Points,
     next_pts: Optional[Points] = None,
-    win_size: Union[Tuple[int, int], int, None] = None,
+    win_size: Union[Tuple[int, int], int, None] = (21, 21),
     max_level: int = 3,
-    criteria: Optional[Tuple[int, int, float]] = None,
+    criteria: Optional[Tuple[int, int, float]] = (3, 30, 0.01),
     flags: int = 0,
     min_eig_threshold: float = 1e-4,
     illumination: Illumination = "gain_bias",
@@ -48,8 +48,7 @@ def calc_optical_flow_pyr_lk(
     npt.NDArray[np.float32], npt.NDArray[np.uint8], npt.NDArray[np.float32], list[str]
 ]:
     """Pyramidal Lucas-Kanade as cv2.calcOpticalFlowPyrLK: (next_pts N x 1 x 2 float32,
-    status N x 1 uint8, err N x 1 float32); win_size defaults to (21, 21), criteria to
-    (3, 30, 0.01)."""
+    status N x 1 uint8, err N x 1 float32)."""
 
 def good_features_to_track(
     image: Frame,

@@ -101,11 +101,12 @@ pub fn status_name(status: TrackStatus) -> &'static str {
 /// prev_pts: float32 points, shape (N, 1, 2) or (N, 2), N >= 1, finite.
 /// next_pts: starting guesses of the same shape, used when `flags` has
 ///     OPTFLOW_USE_INITIAL_FLOW (4); ignored otherwise, as in OpenCV.
-/// win_size: (w, h) window; the library's windows are square, odd, 3 to 63 px.
+/// win_size: (w, h) window, default (21, 21) (None too); the library's windows are square,
+///     odd, 3 to 63 px.
 /// max_level: coarsest pyramid level, 0 to 7, and the coarsest level must be more than half
 ///     a window wide and high (OpenCV silently uses fewer levels; this raises ValueError).
-/// criteria: (type, max_count, epsilon) as in OpenCV: iterations per level (>= 1) and the
-///     step below which iteration stops, px (>= 0).
+/// criteria: (type, max_count, epsilon) as in OpenCV, default (3, 30, 0.01) (None too):
+///     iterations per level (>= 1) and the step below which iteration stops, px (>= 0).
 /// flags: 0 or OPTFLOW_USE_INITIAL_FLOW (4); OPTFLOW_LK_GET_MIN_EIGENVALS (8) is not supported.
 /// min_eig_threshold: minimum eigenvalue of the gradient matrix / window area, OpenCV's
 ///     scale (>= 0); weaker windows are not tracked.
@@ -120,7 +121,10 @@ pub fn status_name(status: TrackStatus) -> &'static str {
 #[pyfunction]
 #[pyo3(signature = (prev, next, prev_pts, next_pts=None, win_size=None, max_level=3,
     criteria=None, flags=0, min_eig_threshold=1e-4, illumination="gain_bias",
-    return_reasons=false))]
+    return_reasons=false),
+    text_signature = "(prev, next, prev_pts, next_pts=None, win_size=(21, 21), max_level=3, \
+    criteria=(3, 30, 0.01), flags=0, min_eig_threshold=1e-4, illumination='gain_bias', \
+    return_reasons=False)")]
 #[allow(clippy::too_many_arguments)]
 pub fn calc_optical_flow_pyr_lk<'py>(
     py: Python<'py>,

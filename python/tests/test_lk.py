@@ -130,3 +130,16 @@ def test_criteria_are_honoured(pairs):
     err_one = np.median(np.linalg.norm((one[0] - truth)[:, 0], axis=1))
     err_many = np.median(np.linalg.norm((many[0] - truth)[:, 0], axis=1))
     assert err_many < 0.05 < err_one
+
+
+def test_read_only_and_fortran_point_arrays_are_accepted(pairs):
+    a, b, (dx, dy) = pairs[2]
+    a, b = a.copy(), b.copy()
+    a.setflags(write=False)
+    b.setflags(write=False)
+    p0 = inner(cv2.goodFeaturesToTrack(np.ascontiguousarray(a), 30, 0.01, 7))
+    flat = np.asfortranarray(p0.reshape(-1, 2))
+    assert not flat.flags["C_CONTIGUOUS"]
+    p1, st, _ = kestrel.calc_optical_flow_pyr_lk(a, b, flat)
+    assert st.all()
+    assert np.abs(p1 - p0 - np.float32([dx, dy])).max() < 0.1

@@ -259,7 +259,7 @@ class FlowReading:
     ) -> bytes: ...
 
 class FlowSensor:
-    """The flow-sensor preset's reading, as firmware computes it."""
+    """The library's FlowSensor: the flow-sensor preset's reading, as firmware computes it."""
 
     def __init__(
         self,
@@ -280,5 +280,7 @@ class FlowSensor:
     def set_distance(self, metres: float, sampled_at_us: int) -> None: ...
     @property
     def frames(self) -> int: ...
+    @property
+    def tracker_report(self) -> Optional[Tuple[int, int, int, int]]: ...
 
 __all__: Sequence[str]

@@ -1,23 +1,21 @@
 //! Ego-motion (robust model fits to point pairs) and the flow sensor's reading with its
 //! MAVLink 2 frames.
 
-use std::collections::HashMap;
-
-use host_sim::tracking::Preset;
 use kestrel::ego::mavlink::{
     encode_heartbeat, encode_optical_flow, encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN,
 };
 use kestrel::ego::{
-    Camera, CameraParams, EgoMotion as LibraryMotion, EgoStatus, FlowRadAccumulator, ModelKind,
-    OpticalFlow, OpticalFlowRad, Ransac, RansacParams, DEFAULT_SEED,
+    CameraParams, EgoMotion as LibraryMotion, EgoStatus, ModelKind, OpticalFlow, OpticalFlowRad,
+    Ransac, RansacParams, DEFAULT_SEED,
 };
-use kestrel::Point;
+use kestrel::sensor::{FlowSensor as LibrarySensor, FlowSensorConfig};
+use kestrel::track::{FrameReport, TrackerConfig};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::arrays;
 use crate::settings::value_error;
-use crate::tracker::Live;
+use crate::tracker::Buffers;
 
 fn model_kind(name: &str) -> PyResult<ModelKind> {
     match name {
@@ -336,43 +334,80 @@ pub fn heartbeat_mavlink(
     mavlink_bytes(py, encode_heartbeat, system_id, component_id, sequence)
 }
 
-/// The flow sensor of the library's flow-sensor preset, as firmware runs it: the tracker with
-/// TrackerConfig::flow_sensor() (25 tracks, 7 px windows, two box-mean pyramid levels, FAST
-/// corners), a similarity fitted by RANSAC to the tracks that lived through each frame, and
-/// the OPTICAL_FLOW_RAD accumulator over a pinhole camera.
+/// The library's flow sensor (kestrel::sensor::FlowSensor) with its buffers and the previous
+/// frame it takes again with the next.
+struct SensorLive {
+    /// Borrows `buffers`; cleared first (see `Drop`), and declared first.
+    sensor: Option<LibrarySensor<'static, SENSOR_TRACKS>>,
+    buffers: Buffers,
+    prev: Vec<u8>,
+    width: usize,
+    height: usize,
+}
+
+impl Drop for SensorLive {
+    fn drop(&mut self) {
+        // The sensor's borrows end here, before the buffers are freed.
+        self.sensor = None;
+    }
+}
+
+/// Tracks the flow sensor follows at most: the preset's.
+const SENSOR_TRACKS: usize = TrackerConfig::flow_sensor().max_tracks;
+
+/// The flow sensor exactly as firmware runs it: the library's FlowSensor (the tracker with
+/// TrackerConfig::flow_sensor(), 25 tracks, 7 px windows on two levels of a box-mean pyramid,
+/// FAST corners; a similarity fitted by RANSAC to the tracks' correspondences; the
+/// OPTICAL_FLOW_RAD integration over a pinhole camera; a gyro, when given, seeds the search
+/// and goes into the reading).
 ///
 /// FlowSensor(width=None, height=None, *, fov=1.0, focal=None, sensor_id=0)
 ///
-/// fov: horizontal field of view, radians (used when focal is None).
+/// width, height: the frame size; when None, the first frame's size is taken.
+/// fov: horizontal field of view, radians, between 0 and pi (used when focal is None).
 /// focal: focal length, px (1 to 100000).
+/// sensor_id: the id in OPTICAL_FLOW_RAD, 0 to 255.
 ///
 /// `push(frame, interval_us, gyro=None)` takes each frame with the time since the previous
-/// one and returns the pair's EgoMotion (None for the first frame); `readout(time_usec)`
-/// returns the FlowReading integrated since the last readout and starts a new integration.
+/// one and returns the pair's EgoMotion (None for the first frame, which starts the tracks);
+/// `readout(time_usec)` returns the FlowReading integrated since the last readout and starts
+/// the next integration. A frame of another size raises ValueError and, as on the board,
+/// spoils the reading (quality 0). The GIL is released while the sensor works; it keeps a
+/// packed copy of the last frame.
 #[pyclass(module = "kestrel")]
 pub struct FlowSensor {
-    live: Option<Live>,
-    ransac: Ransac,
+    config: FlowSensorConfig,
     fov: f32,
     focal: Option<f32>,
-    sensor_id: u8,
-    accumulator: Option<FlowRadAccumulator>,
+    live: Option<SensorLive>,
     frames: u64,
+    report: Option<FrameReport>,
 }
 
 impl FlowSensor {
     fn make(&mut self, w: usize, h: usize) -> PyResult<()> {
         let (w16, h16) = (w as u16, h as u16);
-        let mut params = CameraParams::from_horizontal_fov(w16, h16, self.fov);
+        let mut camera = CameraParams::from_horizontal_fov(w16, h16, self.fov);
         if let Some(f) = self.focal {
-            params.focal_x = f;
-            params.focal_y = f;
+            camera.focal_x = f;
+            camera.focal_y = f;
         }
-        let camera = Camera::new(params).map_err(|e| value_error(format!("camera: {e}")))?;
-        let config = Preset::FlowSensor.config(None);
-        let live = Live::new(config, w, h)
+        let config = FlowSensorConfig {
+            camera,
+            ..self.config
+        };
+        let mut live = SensorLive {
+            sensor: None,
+            buffers: Buffers::new(&config.tracker, w, h),
+            prev: Vec::new(),
+            width: w,
+            height: h,
+        };
+        // SAFETY: lent once; the sensor is dropped before the buffers (`Drop for SensorLive`).
+        let lent = unsafe { live.buffers.lend() };
+        let sensor = LibrarySensor::new(config, w, h, lent)
             .map_err(|e| value_error(format!("flow sensor refused {w}x{h} frames: {e}")))?;
-        self.accumulator = Some(FlowRadAccumulator::new(camera, self.sensor_id));
+        live.sensor = Some(sensor);
         self.live = Some(live);
         Ok(())
     }
@@ -394,21 +429,24 @@ impl FlowSensor {
                 "fov must be a horizontal field of view in radians, between 0 and pi: got {fov}"
             )));
         }
+        if let Some(f) = focal {
+            if !(1.0..=100_000.0).contains(&f) {
+                return Err(value_error(format!(
+                    "focal must be a focal length from 1 to 100000 px: got {f}"
+                )));
+            }
+        }
         let sensor_id = u8::try_from(sensor_id)
             .map_err(|_| value_error(format!("sensor_id must be 0 to 255: got {sensor_id}")))?;
-        let ransac = Ransac::new(RansacParams {
-            model: ModelKind::Similarity,
-            ..RansacParams::default()
-        })
-        .map_err(|e| value_error(e.to_string()))?;
+        let mut config = FlowSensorConfig::new(CameraParams::from_horizontal_fov(64, 64, 1.0));
+        config.sensor_id = sensor_id;
         let mut sensor = FlowSensor {
-            live: None,
-            ransac,
+            config,
             fov: fov as f32,
             focal: focal.map(|f| f as f32),
-            sensor_id,
-            accumulator: None,
+            live: None,
             frames: 0,
+            report: None,
         };
         match (width, height) {
             (None, None) => {}
@@ -428,8 +466,9 @@ impl FlowSensor {
 
     /// Takes the next frame (2-D uint8) and the time since the previous frame, us (1 to
     /// 1000000), with the gyro's integrated rotation over that interval (x, y, z), rad, in
-    /// PX4's sensor frame, if there is one. Returns the camera's EgoMotion for the pair (None
-    /// for the first frame) after adding it to the integration.
+    /// PX4's sensor frame, if there is one. Returns the camera's EgoMotion for the pair, its
+    /// inliers over the pair's correspondences (None for the first frame, which starts the
+    /// tracks), after adding it to the integration.
     #[pyo3(signature = (frame, interval_us, gyro=None))]
     fn push(
         &mut self,
@@ -454,66 +493,73 @@ impl FlowSensor {
                 return Err(value_error("gyro must be three finite numbers (rad)"));
             }
         }
-        match self.live.as_ref().map(|l| l.size()) {
-            Some((tw, th)) if (tw, th) != (w, h) => {
-                return Err(value_error(format!(
-                    "frame is {w}x{h} but the sensor was made for {tw}x{th} frames"
-                )))
-            }
-            Some(_) => {}
-            None => self.make(w, h)?,
+        if self.live.is_none() {
+            self.make(w, h)?;
         }
-        let pixels = frame.pixels();
-        let ransac = &self.ransac;
-        let (Some(live), Some(accumulator)) = (self.live.as_mut(), self.accumulator.as_mut())
-        else {
+        let Some(live) = self.live.as_mut() else {
             return Err(value_error("flow sensor could not be made"));
         };
-        let first = live.is_new();
-        let motion = py
-            .detach(|| -> Result<Option<LibraryMotion>, String> {
-                let before: HashMap<u32, Point> =
-                    live.tracks().iter().map(|t| (t.id, t.position)).collect();
-                live.step(pixels, false)?;
-                if first {
-                    return Ok(None);
-                }
-                let pairs: Vec<(Point, Point)> = live
-                    .tracks()
-                    .iter()
-                    .filter_map(|t| before.get(&t.id).map(|&p| (p, t.position)))
-                    .collect();
-                let mut inliers = vec![false; pairs.len()];
-                let motion = ransac.estimate(&pairs, &mut inliers).unwrap_or_else(|_| {
-                    LibraryMotion::failed(ModelKind::Similarity, EgoStatus::BadInput)
-                });
-                accumulator.add(&motion, interval, gyro);
-                Ok(Some(motion))
+        let Some(sensor) = live.sensor.as_mut() else {
+            return Err(value_error("flow sensor could not be made"));
+        };
+        if (live.width, live.height) != (w, h) {
+            // A frame the board could not use: the reading's quality will be 0.
+            sensor.refuse(interval);
+            return Err(value_error(format!(
+                "frame is {w}x{h} but the sensor was made for {}x{} frames",
+                live.width, live.height
+            )));
+        }
+        let pixels = frame.pixels();
+        let prev = &mut live.prev;
+        let (width, height) = (live.width, live.height);
+        type Stepped = (Option<(LibraryMotion, Vec<bool>)>, FrameReport);
+        let (pair, report) = py
+            .detach(|| -> Result<Stepped, String> {
+                let next = pixels.view()?;
+                let stepped = if prev.is_empty() {
+                    (None, sensor.start(next).map_err(|e| e.to_string())?)
+                } else {
+                    let before = kestrel::ImageView::packed(prev, width, height)
+                        .map_err(|e| e.to_string())?;
+                    let step = sensor
+                        .process(before, next, interval, gyro)
+                        .map_err(|e| e.to_string())?;
+                    (Some((step.motion, sensor.pairs().1.to_vec())), step.report)
+                };
+                *prev = pixels.to_packed();
+                Ok(stepped)
             })
             .map_err(value_error)?;
         self.frames += 1;
-        motion.map(|m| ego_motion(py, &m, None)).transpose()
+        self.report = Some(report);
+        match pair {
+            Some((motion, inliers)) => ego_motion(py, &motion, Some(inliers)).map(Some),
+            None => Ok(None),
+        }
     }
 
     /// The reading integrated since the last readout, time-stamped `time_usec`; starts the
     /// next integration.
     fn readout(&mut self, time_usec: u64) -> PyResult<FlowReading> {
-        let accumulator = self
-            .accumulator
+        let sensor = self
+            .live
             .as_mut()
+            .and_then(|l| l.sensor.as_mut())
             .ok_or_else(|| value_error("no frame yet: push frames before reading out"))?;
-        let rad = accumulator.readout(time_usec);
-        let flow = accumulator.optical_flow(&rad);
+        let rad = sensor.readout(time_usec);
+        let flow = sensor.optical_flow(&rad);
         Ok(FlowReading { rad, flow })
     }
 
     /// Sets the ground distance, m, sampled at `sampled_at_us`, for the next readouts.
     fn set_distance(&mut self, metres: f32, sampled_at_us: u64) -> PyResult<()> {
-        let accumulator = self
-            .accumulator
+        let sensor = self
+            .live
             .as_mut()
+            .and_then(|l| l.sensor.as_mut())
             .ok_or_else(|| value_error("no frame yet: push a frame first"))?;
-        accumulator.set_distance(metres, sampled_at_us);
+        sensor.accumulator_mut().set_distance(metres, sampled_at_us);
         Ok(())
     }
 
@@ -521,5 +567,13 @@ impl FlowSensor {
     #[getter]
     fn frames(&self) -> u64 {
         self.frames
+    }
+
+    /// The tracker's account of the last frame, `(live, tracked, dropped, added)` tracks, or
+    /// None before the first frame.
+    #[getter]
+    fn tracker_report(&self) -> Option<(usize, usize, usize, usize)> {
+        self.report
+            .map(|r| (r.live, r.tracked, r.dropped(), r.added))
     }
 }

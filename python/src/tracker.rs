@@ -15,26 +15,73 @@ use pyo3::types::PyDict;
 use crate::arrays::{self, Pixels};
 use crate::settings::{self, value_error};
 
-/// A tracker's buffers, owned here and lent to the library's tracker for its whole life.
-struct Owned {
+/// A tracker's buffers, owned here and lent to the library (its tracker, or its flow sensor)
+/// for the borrower's whole life.
+pub struct Buffers {
     storage: *mut [u8],
     lk_scratch: *mut [i16],
     detect_scratch: *mut [i32],
     candidates: *mut [Corner],
 }
 
-// SAFETY: the pointers are only dereferenced to lend the buffers once (in `Live::new`) and to
-// free them (in `Live::drop`, after the tracker borrowing them is gone); the buffers are plain
-// data, so moving or sharing the owner between threads is as safe as for a `Box`.
-unsafe impl Send for Owned {}
-// SAFETY: as above; `&Owned` gives no access to the buffers.
-unsafe impl Sync for Owned {}
+// SAFETY: the pointers are only dereferenced to lend the buffers (`lend`) and to free them
+// (`drop`); the buffers are plain data, so moving or sharing the owner between threads is as
+// safe as for a `Box`.
+unsafe impl Send for Buffers {}
+// SAFETY: as above; `&Buffers` gives no access to the buffers.
+unsafe impl Sync for Buffers {}
+
+impl Buffers {
+    /// Buffers for a tracker of `config` on `width` x `height` frames (host-sim's sizes).
+    pub fn new(config: &TrackerConfig, width: usize, height: usize) -> Self {
+        let host = HostBuffers::new(config, width, height);
+        Buffers {
+            storage: Box::into_raw(host.storage.into_boxed_slice()),
+            lk_scratch: Box::into_raw(host.lk_scratch.into_boxed_slice()),
+            detect_scratch: Box::into_raw(host.detect_scratch.into_boxed_slice()),
+            candidates: Box::into_raw(host.candidates.into_boxed_slice()),
+        }
+    }
+
+    /// The buffers, lent for as long as the borrower wants.
+    ///
+    /// # Safety
+    ///
+    /// Call once, and drop the borrower (everything holding the returned references) before
+    /// these buffers: a struct holding both declares the borrower first and clears it in its
+    /// `Drop`.
+    pub unsafe fn lend(&mut self) -> TrackerBuffers<'static> {
+        // SAFETY: each pointer comes from `Box::into_raw` in `new` and stays valid until
+        // `drop`; the caller guarantees one borrower that is gone by then.
+        unsafe {
+            TrackerBuffers {
+                storage: &mut *self.storage,
+                lk_scratch: &mut *self.lk_scratch,
+                detect_scratch: &mut *self.detect_scratch,
+                candidates: &mut *self.candidates,
+            }
+        }
+    }
+}
+
+impl Drop for Buffers {
+    fn drop(&mut self) {
+        // SAFETY: the pointers came from `Box::into_raw` in `new` and are freed once, here;
+        // the borrower was dropped before (see `lend`).
+        unsafe {
+            drop(Box::from_raw(self.storage));
+            drop(Box::from_raw(self.lk_scratch));
+            drop(Box::from_raw(self.detect_scratch));
+            drop(Box::from_raw(self.candidates));
+        }
+    }
+}
 
 /// A library tracker with its buffers and the previous frame it needs again at each step.
 pub struct Live {
-    /// Borrows `owned`; always dropped first (see `Drop`).
+    /// Borrows `buffers`; cleared first (see `Drop`), and declared first.
     tracker: Option<LibraryTracker<'static, MAX_TRACKS>>,
-    owned: Owned,
+    buffers: Buffers,
     /// The last frame given, packed: the library's `process` takes it again with the next.
     prev: Vec<u8>,
     width: usize,
@@ -44,33 +91,17 @@ pub struct Live {
 impl Live {
     /// A tracker of `config` for `width` x `height` frames, or the library's refusal.
     pub fn new(config: TrackerConfig, width: usize, height: usize) -> Result<Self, String> {
-        let host = HostBuffers::new(&config, width, height);
-        let owned = Owned {
-            storage: Box::into_raw(host.storage.into_boxed_slice()),
-            lk_scratch: Box::into_raw(host.lk_scratch.into_boxed_slice()),
-            detect_scratch: Box::into_raw(host.detect_scratch.into_boxed_slice()),
-            candidates: Box::into_raw(host.candidates.into_boxed_slice()),
-        };
         let mut live = Live {
             tracker: None,
-            owned,
+            buffers: Buffers::new(&config, width, height),
             prev: Vec::new(),
             width,
             height,
         };
-        // SAFETY: each pointer comes from `Box::into_raw` above and is freed only in `drop`,
-        // after `tracker`, the one holder of these references, has been dropped; nothing else
-        // reads or writes the buffers meanwhile.
-        let buffers = unsafe {
-            TrackerBuffers {
-                storage: &mut *live.owned.storage,
-                lk_scratch: &mut *live.owned.lk_scratch,
-                detect_scratch: &mut *live.owned.detect_scratch,
-                candidates: &mut *live.owned.candidates,
-            }
-        };
+        // SAFETY: lent once; the tracker is dropped before the buffers (`Drop for Live`).
+        let lent = unsafe { live.buffers.lend() };
         let tracker =
-            LibraryTracker::new(config, width, height, buffers).map_err(|e| e.to_string())?;
+            LibraryTracker::new(config, width, height, lent).map_err(|e| e.to_string())?;
         live.tracker = Some(tracker);
         Ok(live)
     }
@@ -101,25 +132,12 @@ impl Live {
     pub fn tracks(&self) -> &[kestrel::track::Track] {
         self.tracker.as_ref().map(|t| t.tracks()).unwrap_or(&[])
     }
-
-    /// The frame size.
-    pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
-    }
 }
 
 impl Drop for Live {
     fn drop(&mut self) {
         // The tracker's borrows end here, before the buffers are freed.
         self.tracker = None;
-        // SAFETY: the pointers came from `Box::into_raw` in `new` and are freed once, here;
-        // no reference to the buffers is left.
-        unsafe {
-            drop(Box::from_raw(self.owned.storage));
-            drop(Box::from_raw(self.owned.lk_scratch));
-            drop(Box::from_raw(self.owned.detect_scratch));
-            drop(Box::from_raw(self.owned.candidates));
-        }
     }
 }
 

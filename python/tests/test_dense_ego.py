@@ -129,3 +129,18 @@ def test_mavlink_frames_decode_with_pymavlink():
     assert (flow.flow_rate_x, flow.flow_rate_y) == pytest.approx(r.flow_rate)
     (beat,) = parser.parse_buffer(kestrel.heartbeat_mavlink())
     assert beat.get_type() == "HEARTBEAT" and beat.type == 30  # MAV_TYPE_CAMERA
+
+
+def test_a_refused_frame_spoils_the_flow_sensors_reading():
+    bg = texture(9)
+    sensor = kestrel.FlowSensor(160, 120)
+    for k in range(3):
+        sensor.push(np.ascontiguousarray(shifted(bg, 1.0 * k, 0.0)[60:180, 80:240]), 10_000)
+    assert sensor.tracker_report[0] == 25
+    assert sensor.readout(20_000).quality > 0
+    sensor.push(np.ascontiguousarray(shifted(bg, 3.0, 0.0)[60:180, 80:240]), 10_000)
+    with pytest.raises(ValueError, match="frame is 320x240 but the sensor was made for 160x120"):
+        sensor.push(bg, 10_000)
+    r = sensor.readout(40_000)
+    assert r.quality == 0 and r.integration_time_us == 20_000
+    assert sensor.frames == 4

@@ -1,0 +1,80 @@
+"""Tracker: ids kept across frames, positions following a known motion, drop reasons."""
+
+import numpy as np
+
+import kestrel
+from conftest import shifted, texture
+
+
+def sequence(n, step=(1.2, 0.3), seed=9):
+    base = texture(seed)
+    return [np.ascontiguousarray(shifted(base, step[0] * k, step[1] * k)) for k in range(n)]
+
+
+def test_tracks_keep_their_ids_and_follow_the_motion():
+    frames = sequence(6)
+    tracker = kestrel.Tracker()
+    report = tracker.process(frames[0])
+    assert report.added == len(tracker) == 100 and report.frame == 0
+    ids0, pos0 = tracker.ids.copy(), tracker.positions.copy()
+    assert len(set(ids0.tolist())) == 100
+    for k, frame in enumerate(frames[1:], start=1):
+        report = tracker.process(frame)
+        assert report.frame == k
+        assert report.tracked == report.live
+    # Every track lived through the five steps with its id, and moved with the scene.
+    inner = (pos0[:, 0] > 30) & (pos0[:, 0] < 290) & (pos0[:, 1] > 30) & (pos0[:, 1] < 210)
+    same = np.isin(ids0, tracker.ids)
+    assert same[inner].all()
+    by_id = dict(zip(tracker.ids.tolist(), tracker.positions))
+    moved = np.array([by_id[i] - p for i, p in zip(ids0[inner], pos0[inner])])
+    assert np.abs(moved - np.float32([6.0, 1.5])).max() < 0.1
+    ages = dict(zip(tracker.ids.tolist(), tracker.ages.tolist()))
+    assert all(ages[i] == 5 for i in ids0[inner])
+    assert tracker.totals["frames"] == 6 and tracker.totals["added"] == 100
+    vel = tracker.velocities
+    assert np.abs(np.median(vel, axis=0) - [1.2, 0.3]).max() < 0.05
+
+
+def test_a_cut_drops_tracks_with_reasons_and_refills_with_new_ids():
+    frames = sequence(2)
+    other = texture(42)  # a different scene: nothing can be followed
+    tracker = kestrel.Tracker(320, 240)
+    tracker.process(frames[0])
+    tracker.process(frames[1])
+    before = set(tracker.ids.tolist())
+    report = tracker.process(other)
+    assert report.dropped > 50
+    assert report.dropped == (
+        report.dropped_fb + report.dropped_residual + report.dropped_appearance
+        + report.dropped_relocation + report.dropped_out_of_frame + report.dropped_lost
+    )
+    assert set(report.dropped_ids) <= before and len(report.dropped_ids) == report.dropped
+    assert report.added > 0 and report.detected
+    new = set(tracker.ids.tolist()) - before
+    assert new and min(new) > max(before)
+    assert report.as_dict()["dropped"] == report.dropped
+
+
+def test_restart_and_flow_sensor_preset():
+    frames = sequence(3)
+    tracker = kestrel.Tracker(preset="flow_sensor")
+    tracker.process(frames[0])
+    assert tracker.config["max_tracks"] == 25 and tracker.config["detector"] == "fast"
+    assert tracker.config["window"] == 7
+    first = set(tracker.ids.tolist())
+    tracker.process(frames[1])
+    report = tracker.start(frames[2])
+    assert report.dropped == 0 and report.added == len(tracker)
+    assert not first & set(tracker.ids.tolist())
+
+
+def test_strided_frames_are_tracked_like_packed_ones():
+    big = [np.pad(f, ((0, 0), (0, 64))) for f in sequence(3)]
+    crops = [b[:, :320] for b in big]
+    assert crops[0].strides == (384, 1)
+    a, b = kestrel.Tracker(), kestrel.Tracker()
+    for crop in crops:
+        ra, rb = a.process(crop), b.process(np.ascontiguousarray(crop))
+        assert ra.as_dict() == rb.as_dict()
+    np.testing.assert_array_equal(a.positions, b.positions)

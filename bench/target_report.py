@@ -251,7 +251,7 @@ def main(argv):
                    f"budget {BUDGET_TRACKER_STATE}: both pyramids ({state['tracker_storage']} with "
                    f"FAST's rows), tracks ({state['tracker_struct']}), scratch, candidates"))
     out.append(row("dense grid and boxes state", state["dense_state"]))
-    out.append(row("ego-motion state", state["ego_state"], "RANSAC pairs, track history, MAVLink frame"))
+    out.append(row("ego-motion state", state["ego_state"], "RANSAC pairs and inliers, MAVLink frame"))
     out.append(row("static RAM (.data + .bss)", mem["static_ram"]))
     out.append(row("stack high-water mark", stack_peak, "boot to the end of the run, printing included"))
     out.append(row("  start-up", per_frame["boot_stack"],

@@ -132,6 +132,7 @@ struct Frame {
 /// frames/s until the heartbeats at 0, 1 and 2 s have gone out; frame 150 is cut short.
 static RECORDING: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
 const FRAME_LEN: usize = WIDTH * HEIGHT;
+const FRAME_INTERVAL_US: u64 = 10_000;
 const PLAYBACK: core::ops::RangeInclusive<u64> = 0..=205;
 const CUT_SHORT: u64 = 150;
 
@@ -155,7 +156,7 @@ impl Camera {
             CUT_SHORT => frame.get(..FRAME_LEN / 2).unwrap_or(&[]),
             _ => frame,
         };
-        let time_us = tick * 10_000;
+        let time_us = tick * FRAME_INTERVAL_US;
         PLAYBACK
             .contains(&tick)
             .then_some(Frame { pixels, time_us })

@@ -16,11 +16,18 @@ tcp:...`), and parses the bytes with pymavlink's MAVLink 2 parser as they arrive
   flow per second, flow_x/y the same flow in deci-pixels;
 - the counts against the firmware's own `link` record, nothing dropped, and `result pass`.
 
+With `--example NAME` it runs firmware/examples/NAME.rs instead (bench/template_link.sh: the
+template `flow_sensor`), which prints only `link bytes=N frame_clock_us=N` and exits with
+success at the end of its recording. Its camera may lose a frame: a readout after one may
+integrate several frame intervals (its flow then that many steps of the motion), and at least
+one readout must be of quality 0. The counts are checked against its frame clock and bytes.
+
 The last line is `heartbeat=N optical_flow_rad=N optical_flow=N crc_errors=N gaps=N`; the exit
-status is non-zero when any check fails. Usage: bench/mavlink_link.py (after building the
-firmware; bench/mavlink_link.sh does both).
+status is non-zero when any check fails. Usage: bench/mavlink_link.py [--example NAME] (after
+building the firmware; bench/mavlink_link.sh and bench/template_link.sh do both).
 """
 
+import argparse
 import math
 import os
 import re
@@ -58,19 +65,22 @@ def scene():
     interval = int(const("FRAME_INTERVAL_US").replace("_", ""))
     focal = width / 2.0 / math.tan(math.radians(fov) / 2.0)
     return {
-        "expected": (math.atan(motion[0] / 1000.0 / focal), math.atan(motion[1] / 1000.0 / focal)),
+        "motion_px": (motion[0] / 1000.0, motion[1] / 1000.0),
         "tolerance": math.atan(FLOW_TOLERANCE_PX / focal),
         "focal": focal,
         "interval_us": interval,
     }
 
 
-def run_firmware(server):
-    """Runs the firmware with USART2 on the server's port; returns (bytes, log, status)."""
+def run_firmware(server, example=None):
+    """Runs the firmware (or its example) with USART2 on the server's port; returns (bytes,
+    messages, log, status)."""
     port = server.getsockname()[1]
-    command = ["cargo", "run", "--release", "--quiet", "--", "-serial", "null",
+    target = ["--example", example] if example else []
+    command = ["cargo", "run", "--release", "--quiet", *target, "--", "-serial", "null",
                "-serial", f"tcp:127.0.0.1:{port}", "-monitor", "none"]
-    log = open(os.path.join(FIRMWARE, "target", "mavlink_link.log"), "w+")
+    name = f"{example}_link.log" if example else "mavlink_link.log"
+    log = open(os.path.join(FIRMWARE, "target", name), "w+")
     qemu = subprocess.Popen(command, cwd=FIRMWARE, stdin=subprocess.DEVNULL, stdout=log,
                             stderr=subprocess.STDOUT)
     deadline = time.monotonic() + RUN_TIMEOUT
@@ -123,15 +133,19 @@ def record(log, kind):
 class Checks:
     def __init__(self):
         self.problems = []
+        # The largest distance of a reading from the motion, px at the principal point.
+        self.worst_error_px = 0.0
 
     def expect(self, ok, what):
         if not ok and len(self.problems) < 1000:
             self.problems.append(what)
 
 
-def check_rad(checks, m, truth, previous_time):
+def check_rad(checks, m, truth, previous_time, lost_frames):
+    """Checks one OPTICAL_FLOW_RAD; returns the frame intervals it integrates."""
     name = f"OPTICAL_FLOW_RAD seq {m.get_seq()}"
-    checks.expect(m.integration_time_us == truth["interval_us"],
+    steps, rest = divmod(m.integration_time_us, truth["interval_us"])
+    checks.expect(rest == 0 and (steps == 1 or (lost_frames and steps > 1)),
                   f"{name}: integration_time_us {m.integration_time_us}")
     if previous_time is not None:
         checks.expect(m.time_usec == previous_time + truth["interval_us"],
@@ -143,12 +157,20 @@ def check_rad(checks, m, truth, previous_time):
     checks.expect(all(math.isfinite(v) for v in flow), f"{name}: flow {flow}")
     if m.quality == 0:
         checks.expect(flow == (0.0, 0.0), f"{name}: flow {flow} at quality 0")
-        return
-    ex, ey = truth["expected"]
+        return steps
+    mx, my = truth["motion_px"]
+    focal = truth["focal"]
+    ex, ey = math.atan(steps * mx / focal), math.atan(steps * my / focal)
     tol = truth["tolerance"]
     near = [max(abs(flow[0] - s * ex), abs(flow[1] - s * ey)) for s in (1.0, -1.0)]
     checks.expect(min(near) <= tol,
                   f"{name}: flow {flow} rad, expected +-({ex:.6f}, {ey:.6f}) within {tol:.6f}")
+    if all(math.isfinite(v) for v in flow):
+        px = (focal * math.tan(flow[0]), focal * math.tan(flow[1]))
+        error = min(max(abs(px[0] - s * steps * mx), abs(px[1] - s * steps * my))
+                    for s in (1.0, -1.0))
+        checks.worst_error_px = max(checks.worst_error_px, error)
+    return steps
 
 
 def check_flow(checks, m, rad, truth):
@@ -173,10 +195,10 @@ def check_flow(checks, m, rad, truth):
                       f"{name}: flow_{axis} {dpix} dpix, expected {expected_dpix:.2f}")
 
 
-def check_stream(messages, truth):
+def check_stream(messages, truth, lost_frames=False):
     checks = Checks()
     counts = {"HEARTBEAT": 0, "OPTICAL_FLOW_RAD": 0, "OPTICAL_FLOW": 0, "BAD_DATA": 0}
-    gaps, expected_seq, rad, previous_time, invalid = 0, 0, None, None, 0
+    gaps, expected_seq, rad, previous_time, invalid, spans = 0, 0, None, None, 0, 0
     heartbeat_due = False
     for m in messages:
         kind = m.get_type()
@@ -199,7 +221,7 @@ def check_stream(messages, truth):
             checks.expect(new_second == (counts["HEARTBEAT"] > 0 and not heartbeat_due),
                           f"OPTICAL_FLOW_RAD seq {m.get_seq()}: heartbeat missing or extra "
                           f"at {m.time_usec} us")
-            check_rad(checks, m, truth, previous_time)
+            spans += check_rad(checks, m, truth, previous_time, lost_frames) > 1
             invalid += m.quality == 0
             rad, previous_time, heartbeat_due = m, m.time_usec, True
         elif kind == "OPTICAL_FLOW":
@@ -207,24 +229,49 @@ def check_stream(messages, truth):
             rad = None
         else:
             checks.expect(False, f"unexpected message {kind}")
-    return checks, counts, gaps, invalid
+    return checks, counts, gaps, invalid, spans
+
+
+def check_example(checks, log, data, counts, invalid, spans, truth, example):
+    """The example's counts against its `link` record: its bytes and its frame clock."""
+    link = record(log, "link")
+    if link is None:
+        checks.expect(False, f"{example} printed no link record")
+        return
+    checks.expect(int(link["bytes"]) == len(data),
+                  f"{len(data)} bytes received, {example} sent {link['bytes']}")
+    clock_us = int(link["frame_clock_us"])
+    readouts = clock_us // truth["interval_us"]
+    checks.expect(counts["OPTICAL_FLOW_RAD"] == readouts == counts["OPTICAL_FLOW"],
+                  f"{counts['OPTICAL_FLOW_RAD']} OPTICAL_FLOW_RAD and {counts['OPTICAL_FLOW']} "
+                  f"OPTICAL_FLOW in {clock_us} us of frame clock, expected {readouts}")
+    checks.expect(counts["HEARTBEAT"] == clock_us // 1_000_000 + 1,
+                  f"{counts['HEARTBEAT']} heartbeats in {clock_us} us of frame clock")
+    checks.expect(invalid >= 1, "no readout of quality 0: the bad frame was not reported")
+    print(f"{example}: {readouts} readouts in {clock_us / 1e6} s of frame clock, "
+          f"{link['bytes']} bytes; {invalid} of quality 0, {spans} over a lost frame")
 
 
 def main():
+    parser = argparse.ArgumentParser(description="Checks the firmware's MAVLink stream.")
+    parser.add_argument("--example", help="run firmware/examples/EXAMPLE.rs instead")
+    example = parser.parse_args().example
     truth = scene()
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as server:
         server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         server.bind(("127.0.0.1", 0))
         server.listen(1)
-        data, messages, log, status = run_firmware(server)
-    checks, counts, gaps, invalid = check_stream(messages, truth)
+        data, messages, log, status = run_firmware(server, example)
+    checks, counts, gaps, invalid, spans = check_stream(messages, truth, example is not None)
     checks.expect(status == 0, f"the firmware failed (QEMU status {status})")
-    checks.expect("result pass" in log, "the firmware did not report result pass")
     checks.expect(len(data) > 0, "no bytes arrived from USART2")
     link = record(log, "link")
-    if link is None:
+    if example:
+        check_example(checks, log, data, counts, invalid, spans, truth, example)
+    elif link is None:
         checks.expect(False, "the firmware printed no link record")
     else:
+        checks.expect("result pass" in log, "the firmware did not report result pass")
         for key, kind in (("heartbeats", "HEARTBEAT"), ("optical_flow_rad", "OPTICAL_FLOW_RAD"),
                           ("optical_flow", "OPTICAL_FLOW")):
             checks.expect(int(link[key]) == counts[kind],
@@ -240,6 +287,9 @@ def main():
         print(f"firmware: {link['readouts']} readouts in {seconds} s of frame clock, "
               f"{link['bytes']} bytes; sending {link['instructions_per_frame']} instructions "
               f"per readout (worst {link['worst']})")
+    print(f"flow: worst reading {checks.worst_error_px:.4f} px from the scene's motion "
+          f"({truth['motion_px'][0]:+.3f}, {truth['motion_px'][1]:+.3f}) px per frame at the "
+          f"principal point, tolerance {FLOW_TOLERANCE_PX} px")
     for problem in checks.problems[:20]:
         print(f"FAIL {problem}")
     if len(checks.problems) > 20:

@@ -77,6 +77,11 @@ fn motion_corpus() {
     replay("motion");
 }
 
+#[test]
+fn sensor_corpus() {
+    replay("sensor");
+}
+
 fn target_named(name: &str) -> &'static targets::Target {
     targets::ALL
         .iter()
@@ -90,7 +95,7 @@ fn every_target_is_replayed() {
     let names: Vec<&str> = targets::ALL.iter().map(|t| t.name).collect();
     assert_eq!(
         names,
-        ["frame", "detect", "lk", "track", "ego", "dense", "motion"]
+        ["frame", "detect", "lk", "track", "ego", "dense", "motion", "sensor"]
     );
 }
 

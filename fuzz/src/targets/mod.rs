@@ -17,6 +17,7 @@ pub mod lk;
 mod mavlink_frame;
 pub mod motion;
 pub mod picture;
+pub mod sensor;
 pub mod track;
 
 /// A fuzz target.
@@ -65,6 +66,11 @@ pub const ALL: &[Target] = &[
         name: "motion",
         run: motion::run,
         show: motion::show,
+    },
+    Target {
+        name: "sensor",
+        run: sensor::run,
+        show: sensor::show,
     },
 ];
 

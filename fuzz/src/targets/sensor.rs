@@ -225,12 +225,19 @@ impl Model<'_, '_> {
                     "the previous frame and one of the right size were refused: {e:?}"
                 );
                 assert!(matches!(e, FlowSensorError::Tracker(_)), "{e:?}");
-                assert_eq!(self.sensor.tracks(), before, "a refused frame changed tracks");
+                assert_eq!(
+                    self.sensor.tracks(),
+                    before,
+                    "a refused frame changed tracks"
+                );
                 self.spoilt = true;
                 return;
             }
         };
-        assert!(size_ok && self.last.is_some(), "a frame the tracker must refuse was taken");
+        assert!(
+            size_ok && self.last.is_some(),
+            "a frame the tracker must refuse was taken"
+        );
         self.last = Some(next_frame);
         if step.integrated != EgoStatus::Ok {
             self.spoilt = true;
@@ -255,7 +262,10 @@ impl Model<'_, '_> {
         let reading = self.sensor.readout(time);
         assert!(reading.integrated_x.is_finite() && reading.integrated_y.is_finite());
         if self.spoilt {
-            assert_eq!(reading.quality, 0, "a spoilt integration read out {reading:?}");
+            assert_eq!(
+                reading.quality, 0,
+                "a spoilt integration read out {reading:?}"
+            );
         }
         if reading.quality == 0 {
             assert_eq!((reading.integrated_x, reading.integrated_y), (0.0, 0.0));

@@ -243,8 +243,20 @@ pub enum ObjectsStage {
 
 /// The motion-detection pipeline: see the [module documentation](self). `N` is the most
 /// boxes a frame pair gives and the persistence remembers.
+///
+/// `OUTLINE` says whether the pipeline may outline: `false` refuses a configuration with an
+/// outline ([`DenseError::BadOutline`]) and compiles the outline out, so a program that has
+/// no use for it does not link its code (9 KB of Cortex-M4 flash).
+///
+/// ```
+/// use kestrel::dense::{DenseError, MovingObjects, MovingObjectsConfig};
+/// let regions = MovingObjects::<8, false>::new(MovingObjectsConfig::grid_regions(), 160, 120);
+/// assert!(regions.is_ok());
+/// let outlined = MovingObjects::<8, false>::new(MovingObjectsConfig::default(), 160, 120);
+/// assert_eq!(outlined.err(), Some(DenseError::BadOutline));
+/// ```
 #[derive(Debug, Clone)]
-pub struct MovingObjects<const N: usize> {
+pub struct MovingObjects<const N: usize, const OUTLINE: bool = true> {
     config: MovingObjectsConfig,
     layout: GridLayout,
     flow: DenseFlow,
@@ -259,7 +271,7 @@ pub struct MovingObjects<const N: usize> {
     reported: usize,
 }
 
-impl<const N: usize> MovingObjects<N> {
+impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// A pipeline for `width` x `height` frames, its settings checked.
     ///
     /// ```
@@ -282,6 +294,9 @@ impl<const N: usize> MovingObjects<N> {
         let flow = DenseFlow::new(config.grid)?;
         let layout = flow.layout(width, height)?;
         let detector = MotionDetector::new(config.motion)?;
+        if !OUTLINE && config.outline.is_some() {
+            return Err(DenseError::BadOutline);
+        }
         let outliner = config.outline.map(Outliner::new).transpose()?;
         config.fit.check()?;
         Ok(Self {
@@ -477,7 +492,9 @@ impl<const N: usize> MovingObjects<N> {
         )?;
         stage_ended(ObjectsStage::Regions);
         let mut candidates = summary.boxes;
-        if let Some(outliner) = &self.outliner {
+        // Without OUTLINE, the branch and the outline's code are compiled out.
+        let outliner = if OUTLINE { self.outliner.as_ref() } else { None };
+        if let Some(outliner) = outliner {
             candidates = self
                 .persistence
                 .append_expected(&mut self.boxes, candidates);

@@ -7,8 +7,7 @@ use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::{motion_scratch_len, MotionParams};
 use kestrel::dense::regions::MotionBox;
 use kestrel::dense::{
-    DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage,
-    ObjectsStep,
+    DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, ObjectsStep,
 };
 use kestrel::ego::EgoMotion;
 use kestrel::lk::LkParams;

@@ -493,7 +493,11 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
         stage_ended(ObjectsStage::Regions);
         let mut candidates = summary.boxes;
         // Without OUTLINE, the branch and the outline's code are compiled out.
-        let outliner = if OUTLINE { self.outliner.as_ref() } else { None };
+        let outliner = if OUTLINE {
+            self.outliner.as_ref()
+        } else {
+            None
+        };
         if let Some(outliner) = outliner {
             candidates = self
                 .persistence

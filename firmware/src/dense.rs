@@ -1,13 +1,15 @@
-//! The dense grid and its motion boxes: LK at every node of an 8 px grid, then the regions that
-//! move unlike the camera.
+//! The dense grid and its motion boxes: the library's motion detector
+//! ([`kestrel::dense::MovingObjects`]) on an 8 px grid, against the camera's motion fitted to
+//! the tracks, without the outline.
 
-use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
+use kestrel::dense::grid::{grid_len, DenseParams, GridNode};
 use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
-use kestrel::dense::persist::BoxPersistence;
+use kestrel::dense::motion::{motion_scratch_len, MotionParams};
 use kestrel::dense::regions::MotionBox;
-use kestrel::dense::DenseError;
-use kestrel::ego::{EgoMotion, EgoStatus};
+use kestrel::dense::{
+    DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, ObjectsStep,
+};
+use kestrel::ego::EgoMotion;
 use kestrel::lk::LkParams;
 use kestrel::pyramid::Pyramid;
 use kestrel::Point;
@@ -48,103 +50,77 @@ impl DenseMemory {
             motion_scratch: [0; MOTION_SCRATCH_LEN],
         }
     }
+
+    /// The buffers, lent to the motion detector (no outline).
+    fn buffers(&mut self) -> MovingObjectsBuffers<'_> {
+        MovingObjectsBuffers {
+            nodes: &mut self.nodes,
+            lk_scratch: &mut self.lk_scratch,
+            mask: &mut self.mask,
+            motion_scratch: &mut self.motion_scratch,
+            outline_scratch: &mut [],
+        }
+    }
 }
 
-/// The grid, the detector and the boxes of the latest frame.
+/// The motion detector (compiled without the outline) and its buffers.
 pub struct Dense {
-    flow: DenseFlow,
-    detector: MotionDetector,
-    persistence: BoxPersistence<MAX_BOXES>,
-    buffers: &'static mut DenseMemory,
-    boxes: [MotionBox; MAX_BOXES],
-    found: usize,
+    objects: MovingObjects<MAX_BOXES, false>,
+    buffers: MovingObjectsBuffers<'static>,
 }
 
 impl Dense {
     /// The library's motion-detection defaults (8 px cells, 9x9 windows) on the tracker's three
-    /// levels.
-    pub fn new(buffers: &'static mut DenseMemory) -> Result<Self, FrameError> {
-        let defaults = DenseParams::for_motion();
-        let params = DenseParams {
-            cell: CELL,
-            lk: LkParams {
-                max_level: MAX_LEVEL,
-                ..defaults.lk
+    /// levels, each region of three nodes or more boxed as it is (no outline).
+    pub fn new(memory: &'static mut DenseMemory) -> Result<Self, FrameError> {
+        let defaults = MovingObjectsConfig::grid_regions();
+        let config = MovingObjectsConfig {
+            grid: DenseParams {
+                cell: CELL,
+                lk: LkParams {
+                    max_level: MAX_LEVEL,
+                    ..defaults.grid.lk
+                },
+                // Windows too flat for the camera check are not searched: a quarter of the
+                // grid's instructions here, the boxes unchanged.
+                search_flat: false,
+                ..defaults.grid
             },
-            // Windows too flat for the camera check are not searched: a quarter of the grid's
-            // instructions here, the boxes unchanged.
-            search_flat: false,
+            motion: MotionParams::default(),
+            outline: None,
+            persist_pairs: PERSIST_PAIRS,
             ..defaults
         };
         Ok(Self {
-            flow: DenseFlow::new(params).map_err(FrameError::Dense)?,
-            detector: MotionDetector::new(MotionParams::default()).map_err(FrameError::Dense)?,
-            persistence: BoxPersistence::new(PERSIST_PAIRS),
-            buffers,
-            boxes: [MotionBox::default(); MAX_BOXES],
-            found: 0,
+            objects: MovingObjects::new(config, WIDTH, HEIGHT).map_err(FrameError::Dense)?,
+            buffers: memory.buffers(),
         })
     }
 
-    /// Tracks every node from `prev` to `next` and fills the invalid ones. With the camera's
-    /// motion fitted to the tracks (`camera`, when the fit succeeded), each node's search
-    /// starts where it predicts, on the finest level; nodes that move otherwise are searched
-    /// on the whole pyramid.
-    pub fn grid(
+    /// Tracks every node from `prev` to `next`, each searched from where the camera's motion
+    /// fitted to the tracks (`camera`) takes it when that fit succeeded, and boxes what moves
+    /// otherwise in two consecutive frame pairs. Without that fit (a scene cut, a blank frame)
+    /// there is nothing reliable to tell motion from: no box, and the regions remembered are
+    /// forgotten. `stage_ended` is called as the grid ends, then as each stage of the boxes
+    /// does.
+    pub fn process(
         &mut self,
         prev: &Pyramid<'_>,
         next: &Pyramid<'_>,
         camera: &EgoMotion,
-    ) -> Result<DenseSummary, DenseError> {
-        self.found = 0;
-        let buffers = &mut self.buffers;
-        let (nodes, scratch) = (&mut buffers.nodes[..], &mut buffers.lk_scratch[..]);
-        if camera.status != EgoStatus::Ok {
-            return self.flow.compute(prev, next, nodes, scratch);
-        }
-        let model = camera.model;
-        let predict = move |p: Point| model.apply_point(p).unwrap_or(p);
-        self.flow
-            .compute_predicted(prev, next, nodes, scratch, &predict)
-    }
-
-    /// Marks what moves otherwise than the camera and boxes the regions that moved in two
-    /// consecutive frame pairs, against the camera's motion fitted to the tracks. Without that
-    /// fit (a scene cut, a blank frame) there is nothing reliable to tell motion from: no box,
-    /// and the regions remembered are forgotten.
-    pub fn boxes(
-        &mut self,
-        layout: &GridLayout,
-        camera: &EgoMotion,
-    ) -> Result<MotionSummary, DenseError> {
-        self.found = 0;
-        if camera.status != EgoStatus::Ok {
-            self.persistence.reset();
-            return Ok(MotionSummary::default());
-        }
-        let buffers = &mut self.buffers;
-        let mut found = self.detector.detect(
-            layout,
-            &buffers.nodes[..],
-            &camera.model,
-            &mut buffers.mask[..],
-            &mut buffers.motion_scratch[..],
-            &mut self.boxes,
-        )?;
-        found.boxes = self
-            .persistence
-            .confirm(layout, &mut self.boxes, found.boxes);
-        self.found = found.boxes;
-        Ok(found)
+        stage_ended: impl FnMut(ObjectsStage),
+    ) -> Result<ObjectsStep, DenseError> {
+        self.objects
+            .process_observed(prev, next, Some(camera), &mut self.buffers, stage_ended)
     }
 
     /// The boxes of the latest frame, largest first.
     pub fn found(&self) -> &[MotionBox] {
-        self.boxes.get(..self.found).unwrap_or(&[])
+        self.objects.boxes()
     }
 
     /// The grid's LK scratch.
     pub fn lk_scratch(&mut self) -> &mut [i16] {
-        &mut self.buffers.lk_scratch[..]
+        self.buffers.lk_scratch
     }
 }

@@ -7,7 +7,7 @@
 
 use kestrel::dense::grid::DenseSummary;
 use kestrel::dense::motion::MotionSummary;
-use kestrel::dense::DenseError;
+use kestrel::dense::{DenseError, ObjectsStage};
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
 use kestrel::ego::{CameraError, EgoMotion, ModelKind, OpticalFlowRad, RansacError};
@@ -208,19 +208,21 @@ impl Pipeline {
             .tracker
             .pyramids(prev, next)
             .map_err(FrameError::Track)?;
-        let dense = &mut self.dense;
-        let grid = times
-            .run(meter, Stage::Dense, || dense.grid(&prev, &next, &motion))
-            .map_err(FrameError::Dense)?;
-        let moving = times
-            .run(meter, Stage::Boxes, || dense.boxes(&grid.layout, &motion))
-            .map_err(FrameError::Dense)?;
+        // The grid is timed as the dense stage, the mask, regions and persistence as the boxes.
+        let mut watch = Stopwatch::start(meter);
+        let found = self.dense.process(&prev, &next, &motion, |stage| {
+            if stage == ObjectsStage::Grid {
+                times.add(Stage::Dense, watch.lap());
+            }
+        });
+        times.add(Stage::Boxes, watch.lap());
+        let found = found.map_err(FrameError::Dense)?;
         Ok(FrameOutput::Tracked(Tracked {
             report,
             motion,
             flow,
-            grid,
-            moving,
+            grid: found.grid,
+            moving: found.summary,
         }))
     }
 

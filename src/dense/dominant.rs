@@ -204,7 +204,7 @@ impl Default for FitParams {
 }
 
 impl FitParams {
-    fn check(&self) -> Result<(), DenseError> {
+    pub(crate) fn check(&self) -> Result<(), DenseError> {
         let positive = |r: f32| r.is_finite() && r > 0.0;
         if positive(self.start_radius) && positive(self.inlier_radius) {
             Ok(())

@@ -15,6 +15,9 @@
 //!    for a region of mismeasured nodes).
 //! 7. [`persist`]: the boxes whose objects moved in consecutive frame pairs.
 //!
+//! [`MovingObjects`] runs them in that order, one frame pair at a time: the motion detector as
+//! one type, the one the firmware and host-sim run.
+//!
 //! [`motion::MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
 //! homography from the ego-motion estimator) can replace [`dominant::DominantMotion`] through
 //! the [`motion::CameraMotion`] trait.
@@ -100,6 +103,7 @@ pub mod fill;
 pub mod grid;
 pub mod mask;
 pub mod motion;
+mod objects;
 // Per-pixel loops over a candidate's area: indices are below the area's pixels, bounded by the
 // checked scratch side (at most 255, so `u16` pixel indices), and sums of nine differences of
 // grey x 16 stay below 2^16 (9 x 4080 = 36 720).
@@ -115,6 +119,10 @@ pub mod outline;
 pub mod persist;
 pub mod regions;
 pub mod smooth;
+
+pub use objects::{
+    MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, ObjectsStep,
+};
 
 use crate::lk::LkError;
 

@@ -7,12 +7,11 @@
 use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
 use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams, MotionSummary};
-use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
-use kestrel::dense::persist::BoxPersistence;
+use kestrel::dense::motion::{motion_scratch_len, MotionParams, MotionSummary};
+use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
 use kestrel::dense::regions::{BoxRules, MotionBox};
 use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked, DEFAULT_GATE, DEFAULT_PASSES};
-use kestrel::dense::DenseError;
+use kestrel::dense::{DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
@@ -156,8 +155,21 @@ pub struct MotionSettings {
     /// Regions outlined at pixel resolution; `None` keeps the grid's boxes.
     pub outline: Option<OutlineParams>,
     /// Consecutive frame pairs a region must move in to be reported
-    /// ([`BoxPersistence`]); 1 reports every pair's boxes.
+    /// ([`kestrel::dense::persist::BoxPersistence`]); 1 reports every pair's boxes.
     pub persist_pairs: u8,
+}
+
+impl MotionSettings {
+    /// The library pipeline's configuration with these settings.
+    pub fn config(&self) -> MovingObjectsConfig {
+        MovingObjectsConfig {
+            grid: self.dense,
+            fit: self.fit,
+            motion: self.motion,
+            outline: self.outline,
+            persist_pairs: self.persist_pairs,
+        }
+    }
 }
 
 /// The default of [`MotionSettings::persist_pairs`].
@@ -224,14 +236,13 @@ impl MotionFrame {
     }
 }
 
-/// Moving-object detection along a sequence: each frame's pyramid is built once and kept as
-/// the next pair's previous one.
+/// Moving-object detection along a sequence: the library's [`MovingObjects`] with the grid's
+/// own fit of the camera's motion, over buffers this runner owns. Each frame's pyramid is built
+/// once and kept as the next pair's previous one.
 #[derive(Debug, Clone)]
 pub struct MotionRunner {
     settings: MotionSettings,
-    dense: DenseFlow,
-    detector: MotionDetector,
-    layout: GridLayout,
+    objects: MovingObjects<MAX_BOXES>,
     /// The previous frame, once one was pushed, and its pyramid levels in `prev_storage`.
     prev: Option<Frame>,
     prev_storage: Vec<u8>,
@@ -240,29 +251,21 @@ pub struct MotionRunner {
     nodes: Vec<GridNode>,
     mask: Vec<u32>,
     motion_scratch: Vec<u32>,
-    boxes: Vec<MotionBox>,
-    outliner: Option<Outliner>,
     outline_scratch: Vec<u16>,
-    outlines: Vec<MotionBox>,
-    persistence: BoxPersistence<MAX_BOXES>,
 }
 
 impl MotionRunner {
     /// A runner for `width` x `height` frames.
     pub fn new(settings: MotionSettings, width: usize, height: usize) -> Result<Self, RunError> {
-        let dense = DenseFlow::new(settings.dense)?;
-        let detector = MotionDetector::new(settings.motion)?;
-        let outliner = settings.outline.map(Outliner::new).transpose()?;
+        let objects = MovingObjects::new(settings.config(), width, height)?;
         let side = settings.outline.map_or(0, |o| o.side);
         let reach = settings.outline.map_or(0, |o| o.reach);
-        let layout = dense.layout(width, height)?;
+        let layout = *objects.layout();
         let cell = settings.dense.cell;
         let storage = pyramid_storage_len(width, height, settings.dense.lk.max_level);
         Ok(Self {
             settings,
-            dense,
-            detector,
-            layout,
+            objects,
             prev: None,
             prev_storage: vec![0; storage],
             next_storage: vec![0; storage],
@@ -270,17 +273,13 @@ impl MotionRunner {
             nodes: vec![GridNode::EMPTY; layout.len()],
             mask: vec![0; mask_words(width, height, cell)],
             motion_scratch: vec![0; motion_scratch_len(width, height, cell)],
-            boxes: vec![MotionBox::default(); MAX_BOXES],
-            outliner,
             outline_scratch: vec![0; outline_scratch_len(side, reach)],
-            outlines: vec![MotionBox::default(); MAX_BOXES],
-            persistence: BoxPersistence::new(settings.persist_pairs),
         })
     }
 
     /// The grid.
     pub fn layout(&self) -> &GridLayout {
-        &self.layout
+        self.objects.layout()
     }
 
     /// The nodes of the last pair, row by row.
@@ -320,51 +319,28 @@ impl MotionRunner {
             return Ok(None);
         };
         let prev = Pyramid::from_storage(view(prev)?, levels, prev_storage)?;
-        self.dense
-            .compute(&prev, &next, &mut self.nodes, &mut self.scratch)?;
-        self.detect(&prev, &next).map(Some)
-    }
-
-    /// Camera motion, mask and boxes of the current nodes.
-    fn detect(&mut self, prev: &Pyramid<'_>, next: &Pyramid<'_>) -> Result<MotionFrame, RunError> {
-        let camera = DominantMotion::fit(&self.layout, &self.nodes, &self.settings.fit)?;
-        let mut summary = self.detector.detect(
-            &self.layout,
-            &self.nodes,
-            &camera.motion,
-            &mut self.mask,
-            &mut self.motion_scratch,
-            &mut self.boxes,
-        )?;
-        let mut candidates = summary.boxes;
-        if self.outliner.is_some() {
-            candidates = self
-                .persistence
-                .append_expected(&mut self.boxes, candidates);
-        }
-        if let Some(outliner) = &self.outliner {
-            candidates = outliner.outline(
-                prev,
-                next,
-                &camera.motion,
-                &self.layout,
-                &self.nodes,
-                &self.mask,
-                self.boxes.get(..candidates).unwrap_or(&[]),
-                &mut self.outline_scratch,
-                &mut self.outlines,
-            )?;
-            std::mem::swap(&mut self.boxes, &mut self.outlines);
-        }
-        summary.boxes = self
-            .persistence
-            .confirm(&self.layout, &mut self.boxes, candidates);
-        Ok(MotionFrame {
+        let mut buffers = MovingObjectsBuffers {
+            nodes: &mut self.nodes,
+            lk_scratch: &mut self.scratch,
+            mask: &mut self.mask,
+            motion_scratch: &mut self.motion_scratch,
+            outline_scratch: &mut self.outline_scratch,
+        };
+        let step = self.objects.process(&prev, &next, None, &mut buffers)?;
+        // Without a camera motion of the caller's, the pipeline always fits its own.
+        debug_assert!(step.fit.is_some(), "no fit of the grid's own");
+        let camera = step.fit.unwrap_or(DominantFit {
+            motion: DominantMotion::ZERO,
+            measured: 0,
+            inliers: 0,
+            spread: 0.0,
+        });
+        Ok(Some(MotionFrame {
             camera,
-            summary,
-            candidates,
-            boxes: self.boxes.get(..summary.boxes).unwrap_or(&[]).to_vec(),
+            summary: step.summary,
+            candidates: step.candidates,
+            boxes: self.objects.boxes().to_vec(),
             mask: self.mask.clone(),
-        })
+        }))
     }
 }

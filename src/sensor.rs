@@ -340,7 +340,7 @@ impl<'m, const N: usize> FlowSensor<'m, N> {
     }
 
     /// The reading integrated since the last readout, stamped `time_usec`; starts the next
-    /// integration. Encode it for the autopilot with [`crate::ego::mavlink`] (feature
+    /// integration. Encode it for the autopilot with `kestrel::ego::mavlink` (feature
     /// `mavlink`).
     ///
     /// See the [module documentation](self).

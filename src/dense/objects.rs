@@ -1,90 +1,4 @@
-//! The motion detector as one type: frame pairs in, boxes of what moves unlike the camera out.
-//!
-//! [`MovingObjects`] runs the dense stages in their order for each frame pair: the grid
-//! ([`DenseFlow`], searched from the camera's motion when the caller knows it), the camera's
-//! motion (the caller's, fitted to the tracks, or else the grid's own dominant fit,
-//! [`DominantMotion::fit`]), the motion mask and its regions ([`MotionDetector`]), optionally
-//! each region outlined at pixel level ([`Outliner`]), and the persistence over frame pairs
-//! ([`BoxPersistence`]). The firmware, `host-sim motion` and `host-sim demo` all run this type.
-//!
-//! Memory: the frames' pyramids are the caller's (a tracker lends its own, so each frame's
-//! pyramid is built once), and so are the per-frame buffers ([`MovingObjectsBuffers`], each
-//! sized by a `const fn`), lent to every [`MovingObjects::process`]: the caller reads the grid
-//! and the mask there afterwards. The type itself holds the settings, the persistence's memory
-//! and `2 * N` boxes, so a `static` of it is its whole footprint.
-//!
-//! ```
-//! use kestrel::dense::grid::{grid_len, GridNode};
-//! use kestrel::dense::mask::mask_words;
-//! use kestrel::dense::motion::motion_scratch_len;
-//! use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
-//! use kestrel::dense::{MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
-//! use kestrel::frame::ImageView;
-//! use kestrel::lk::scratch_len;
-//! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
-//!
-//! const W: usize = 96;
-//! const H: usize = 64;
-//! const LEVELS: usize = 3;
-//! // A still camera over textured ground; a 16 x 16 patch of another texture moves 3 px to
-//! // the right a frame, from x = 24.
-//! let frame = |k: usize| -> [u8; W * H] {
-//!     core::array::from_fn(|i| {
-//!         let (x, y) = (i % W, i / W);
-//!         let left = 24 + 3 * k;
-//!         let (u, v) = (x as f32, y as f32);
-//!         if (left..left + 16).contains(&x) && (24..40).contains(&y) {
-//!             let (u, v) = ((x - left) as f32, (y - 24) as f32);
-//!             (128.0 + 90.0 * (1.3 * u).sin() * (1.1 * v).cos()) as u8
-//!         } else {
-//!             (128.0 + 50.0 * (0.45 * u).sin() * (0.38 * v).cos() + 35.0 * (0.21 * u + 0.3 * v).sin()) as u8
-//!         }
-//!     })
-//! };
-//! fn pyramid<'a>(pixels: &'a [u8], storage: &'a mut [u8]) -> Pyramid<'a> {
-//!     Pyramid::build(ImageView::packed(pixels, W, H).unwrap(), LEVELS, storage).unwrap()
-//! }
-//!
-//! // The defaults: 8 px cells, the grid's own fit of the camera, outlines up to 48 px.
-//! let config = MovingObjectsConfig::default();
-//! assert_eq!((config.grid.cell, config.outline.map(|o| o.side)), (8, Some(48)));
-//! let mut objects = MovingObjects::<8>::new(config, W, H).unwrap();
-//! let mut nodes = [GridNode::EMPTY; grid_len(W, H, 8)];
-//! let mut lk_scratch = [0i16; scratch_len(9)];
-//! let mut mask = [0u32; mask_words(W, H, 8)];
-//! let mut motion_scratch = [0u32; motion_scratch_len(W, H, 8)];
-//! let mut outline_scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
-//! let mut buffers = MovingObjectsBuffers {
-//!     nodes: &mut nodes,
-//!     lk_scratch: &mut lk_scratch,
-//!     mask: &mut mask,
-//!     motion_scratch: &mut motion_scratch,
-//!     outline_scratch: &mut outline_scratch,
-//! };
-//!
-//! let frames = [frame(0), frame(1), frame(2)];
-//! let mut storage = [[0u8; pyramid_storage_len(W, H, LEVELS)]; 3];
-//! let [s0, s1, s2] = &mut storage;
-//! let (p0, p1, p2) = (pyramid(&frames[0], s0), pyramid(&frames[1], s1), pyramid(&frames[2], s2));
-//!
-//! // The first pair: the patch moved, but a box needs two pairs.
-//! let step = objects.process(&p0, &p1, None, &mut buffers).unwrap();
-//! assert!(step.summary.moving > 0 && step.candidates == 1);
-//! assert!(objects.boxes().is_empty());
-//! // The second pair: the patch moved on, and is boxed where it was in frame 1 (27, 24,
-//! // 16 x 16) within a few pixels, with its flow, 3 px to the right.
-//! let step = objects.process(&p1, &p2, None, &mut buffers).unwrap();
-//! assert_eq!(step.summary.boxes, 1);
-//! let b = objects.boxes()[0];
-//! assert!(b.x.abs_diff(27) <= 1 && b.y.abs_diff(24) <= 1, "{b:?}");
-//! assert!(b.w.abs_diff(16) <= 3 && b.h.abs_diff(16) <= 3, "{b:?}");
-//! let (dx, dy) = b.mean_flow.to_f32();
-//! assert!((dx - 3.0).abs() < 0.2 && dy.abs() < 0.2);
-//! // The camera stood still, as the grid's own fit says.
-//! let fit = step.fit.unwrap();
-//! let (cx, cy) = fit.motion.predict(48.0, 32.0);
-//! assert!(cx.abs() < 0.05 && cy.abs() < 0.05);
-//! ```
+//! The motion detector as one type: [`MovingObjects`].
 
 use super::dominant::{DominantFit, DominantMotion, FitParams};
 use super::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
@@ -167,7 +81,7 @@ impl Default for MovingObjectsConfig {
 /// The buffers a frame pair needs, the caller's, lent to each [`MovingObjects::process`].
 ///
 /// Each is at least as long as the `const fn` named beside it, for the frame size and the
-/// [`MovingObjectsConfig`]; longer is fine. See the [module documentation](self) for a whole
+/// [`MovingObjectsConfig`]; longer is fine. See the [`MovingObjects`] documentation for a whole
 /// example.
 ///
 /// ```
@@ -207,7 +121,7 @@ pub struct MovingObjectsBuffers<'a> {
 
 /// What one frame pair gave.
 ///
-/// See the [module documentation](self).
+/// See the [`MovingObjects`] documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ObjectsStep {
@@ -241,8 +155,95 @@ pub enum ObjectsStage {
     Persist,
 }
 
-/// The motion-detection pipeline: see the [module documentation](self). `N` is the most
-/// boxes a frame pair gives and the persistence remembers.
+/// The motion detector as one type: frame pairs in, boxes of what moves unlike the camera out.
+///
+/// [`MovingObjects`] runs the dense stages in their order for each frame pair: the grid
+/// ([`DenseFlow`], searched from the camera's motion when the caller knows it), the camera's
+/// motion (the caller's, fitted to the tracks, or else the grid's own dominant fit,
+/// [`DominantMotion::fit`]), the motion mask and its regions ([`MotionDetector`]), optionally
+/// each region outlined at pixel level ([`Outliner`]), and the persistence over frame pairs
+/// ([`BoxPersistence`]). The firmware, `host-sim motion` and `host-sim demo` all run this type.
+///
+/// Memory: the frames' pyramids are the caller's (a tracker lends its own, so each frame's
+/// pyramid is built once), and so are the per-frame buffers ([`MovingObjectsBuffers`], each
+/// sized by a `const fn`), lent to every [`MovingObjects::process`]: the caller reads the grid
+/// and the mask there afterwards. The type itself holds the settings, the persistence's memory
+/// and `2 * N` boxes, so a `static` of it is its whole footprint.
+///
+/// ```
+/// use kestrel::dense::grid::{grid_len, GridNode};
+/// use kestrel::dense::mask::mask_words;
+/// use kestrel::dense::motion::motion_scratch_len;
+/// use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
+/// use kestrel::dense::{MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::scratch_len;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+///
+/// const W: usize = 96;
+/// const H: usize = 64;
+/// const LEVELS: usize = 3;
+/// // A still camera over textured ground; a 16 x 16 patch of another texture moves 3 px to
+/// // the right a frame, from x = 24.
+/// let frame = |k: usize| -> [u8; W * H] {
+///     core::array::from_fn(|i| {
+///         let (x, y) = (i % W, i / W);
+///         let left = 24 + 3 * k;
+///         let (u, v) = (x as f32, y as f32);
+///         if (left..left + 16).contains(&x) && (24..40).contains(&y) {
+///             let (u, v) = ((x - left) as f32, (y - 24) as f32);
+///             (128.0 + 90.0 * (1.3 * u).sin() * (1.1 * v).cos()) as u8
+///         } else {
+///             (128.0 + 50.0 * (0.45 * u).sin() * (0.38 * v).cos() + 35.0 * (0.21 * u + 0.3 * v).sin()) as u8
+///         }
+///     })
+/// };
+/// fn pyramid<'a>(pixels: &'a [u8], storage: &'a mut [u8]) -> Pyramid<'a> {
+///     Pyramid::build(ImageView::packed(pixels, W, H).unwrap(), LEVELS, storage).unwrap()
+/// }
+///
+/// // The defaults: 8 px cells, the grid's own fit of the camera, outlines up to 48 px.
+/// let config = MovingObjectsConfig::default();
+/// assert_eq!((config.grid.cell, config.outline.map(|o| o.side)), (8, Some(48)));
+/// let mut objects = MovingObjects::<8>::new(config, W, H).unwrap();
+/// let mut nodes = [GridNode::EMPTY; grid_len(W, H, 8)];
+/// let mut lk_scratch = [0i16; scratch_len(9)];
+/// let mut mask = [0u32; mask_words(W, H, 8)];
+/// let mut motion_scratch = [0u32; motion_scratch_len(W, H, 8)];
+/// let mut outline_scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
+/// let mut buffers = MovingObjectsBuffers {
+///     nodes: &mut nodes,
+///     lk_scratch: &mut lk_scratch,
+///     mask: &mut mask,
+///     motion_scratch: &mut motion_scratch,
+///     outline_scratch: &mut outline_scratch,
+/// };
+///
+/// let frames = [frame(0), frame(1), frame(2)];
+/// let mut storage = [[0u8; pyramid_storage_len(W, H, LEVELS)]; 3];
+/// let [s0, s1, s2] = &mut storage;
+/// let (p0, p1, p2) = (pyramid(&frames[0], s0), pyramid(&frames[1], s1), pyramid(&frames[2], s2));
+///
+/// // The first pair: the patch moved, but a box needs two pairs.
+/// let step = objects.process(&p0, &p1, None, &mut buffers).unwrap();
+/// assert!(step.summary.moving > 0 && step.candidates == 1);
+/// assert!(objects.boxes().is_empty());
+/// // The second pair: the patch moved on, and is boxed where it was in frame 1 (27, 24,
+/// // 16 x 16) within a few pixels, with its flow, 3 px to the right.
+/// let step = objects.process(&p1, &p2, None, &mut buffers).unwrap();
+/// assert_eq!(step.summary.boxes, 1);
+/// let b = objects.boxes()[0];
+/// assert!(b.x.abs_diff(27) <= 1 && b.y.abs_diff(24) <= 1, "{b:?}");
+/// assert!(b.w.abs_diff(16) <= 3 && b.h.abs_diff(16) <= 3, "{b:?}");
+/// let (dx, dy) = b.mean_flow.to_f32();
+/// assert!((dx - 3.0).abs() < 0.2 && dy.abs() < 0.2);
+/// // The camera stood still, as the grid's own fit says.
+/// let fit = step.fit.unwrap();
+/// let (cx, cy) = fit.motion.predict(48.0, 32.0);
+/// assert!(cx.abs() < 0.05 && cy.abs() < 0.05);
+/// ```
+///
+/// `N` is the most boxes a frame pair gives and the persistence remembers.
 ///
 /// `OUTLINE` says whether the pipeline may outline: `false` refuses a configuration with an
 /// outline ([`DenseError::BadOutline`]) and compiles the outline out, so a program that has
@@ -529,7 +530,7 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// The boxes reported for the latest frame pair, largest first, in the earlier frame of
     /// the pair ([`MotionBox::in_next_frame`] moves one into the later); none after an error.
     ///
-    /// See the [module documentation](self).
+    /// See the [`MovingObjects`] documentation.
     pub fn boxes(&self) -> &[MotionBox] {
         let reported = self.boxes.get(..self.reported);
         debug_assert!(reported.is_some(), "more boxes reported than kept");

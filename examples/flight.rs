@@ -10,7 +10,6 @@
 //! would declare its `static`s; nothing here needs a heap except rendering the synthetic frames
 //! (host-sim's seeded scenes, which also give the true motion to compare against).
 
-use heapless::FnvIndexMap;
 use host_sim::synth::{FlightPath, FlightSequence, Homography as Warp, SceneSpec};
 use kestrel::detect::Corner;
 use kestrel::ego::{
@@ -76,7 +75,6 @@ fn main() -> Result<(), String> {
     tracker
         .start(view(&prev.data)?)
         .map_err(|e| format!("frame 0: {e}"))?;
-    let mut last_positions = positions(&tracker);
     let mut errors = Vec::with_capacity(frames);
 
     println!("frame  live  added  inliers  quality  motion error (px, frame corners)");
@@ -85,7 +83,7 @@ fn main() -> Result<(), String> {
         let report = tracker
             .process(view(&prev.data)?, view(&next.data)?, None)
             .map_err(|e| format!("frame {k}: {e}"))?;
-        let motion = camera_motion(&ransac, &tracker, &last_positions);
+        let motion = camera_motion(&ransac, &tracker);
         flow.add(&motion, FRAME_INTERVAL_US, None);
 
         let error = motion_error(&motion, &sequence.flight().pair_homography(k));
@@ -107,7 +105,6 @@ fn main() -> Result<(), String> {
                 out.integrated_x, out.integrated_y, out.integration_time_us, out.quality
             );
         }
-        last_positions = positions(&tracker);
         prev = next;
     }
     errors.sort_by(f64::total_cmp);
@@ -120,28 +117,11 @@ fn main() -> Result<(), String> {
     Ok(())
 }
 
-/// Where each live track was, by id: the start of the next frame's correspondences.
-fn positions(tracker: &Tracker<'_, TRACKS>) -> FnvIndexMap<u32, Point, 128> {
-    let mut map = FnvIndexMap::new();
-    for track in tracker.tracks() {
-        // The map holds 128 > TRACKS entries: inserting cannot fail.
-        let _ = map.insert(track.id, track.position);
-    }
-    map
-}
-
-/// The camera's motion from the tracks that lived through the frame.
-fn camera_motion(
-    ransac: &Ransac,
-    tracker: &Tracker<'_, TRACKS>,
-    before: &FnvIndexMap<u32, Point, 128>,
-) -> EgoMotion {
+/// The camera's motion from the tracks that lived through the frame: each one's
+/// correspondence between the two frames ([`Tracker::correspondences`]).
+fn camera_motion(ransac: &Ransac, tracker: &Tracker<'_, TRACKS>) -> EgoMotion {
     let mut pairs: heapless::Vec<(Point, Point), TRACKS> = heapless::Vec::new();
-    for track in tracker.tracks() {
-        if let Some(&start) = before.get(&track.id) {
-            let _ = pairs.push((start, track.position));
-        }
-    }
+    tracker.correspondences(&mut pairs);
     let mut inliers = [false; TRACKS];
     match ransac.estimate(&pairs, &mut inliers[..pairs.len()]) {
         Ok(motion) => motion,

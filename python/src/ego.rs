@@ -481,7 +481,7 @@ impl FlowSensor {
         let (w, h) = frame.size();
         let interval = u32::try_from(interval_us)
             .ok()
-            .filter(|&i| (1..=kestrel::ego::flow_rad::MAX_INTERVAL_US).contains(&i))
+            .filter(|&i| (1..=kestrel::ego::MAX_INTERVAL_US).contains(&i))
             .ok_or_else(|| {
                 value_error(format!(
                     "interval_us must be 1 to 1000000: got {interval_us}"

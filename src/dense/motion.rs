@@ -42,7 +42,7 @@ use super::grid::{grid_len, GridLayout, GridNode, NodeStatus};
 use super::mask::{close, count, mask_words, open, set, words_for, Structure};
 use super::regions::{find_boxes, BoxRules, MotionBox};
 use super::DenseError;
-use crate::ego::model::Homography;
+use crate::ego::Homography;
 
 /// The flow the camera's own motion gives each pixel.
 ///
@@ -71,7 +71,7 @@ pub trait CameraMotion {
 ///
 /// ```
 /// use kestrel::dense::motion::CameraMotion;
-/// use kestrel::ego::model::Homography;
+/// use kestrel::ego::Homography;
 /// let pan = Homography::translation(1.5, -0.5).unwrap();
 /// assert_eq!(pan.predict(10.0, 20.0), (1.5, -0.5));
 /// ```

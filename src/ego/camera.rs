@@ -1,22 +1,4 @@
 //! Pinhole camera with radial distortion, and gyro derotation.
-//!
-//! Intrinsics follow OpenCV: focal lengths `fx`, `fy` and principal point `(cx, cy)` in
-//! pixels, radial distortion `x_d = x_u (1 + k1 r² + k2 r⁴)` on normalised coordinates. Axes
-//! and rotation signs are described in [`super::rotation`].
-//!
-//! Pure rotation moves every pixel by the infinite homography `H = K Rᵀ K⁻¹`, whatever the
-//! depth, so a gyro reading predicts where each point goes: a good initial guess for LK in fast
-//! turns, and the rotational flow to remove before the remaining flow says how the camera
-//! translated.
-//!
-//! ```
-//! use kestrel::ego::{Camera, CameraParams, Rotation};
-//! let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0472)).unwrap();
-//! // 10 ms of pitching up at 3 rad/s: the scene slides down the image by about 4 px.
-//! let r = Rotation::from_body_rates([0.0, 3.0, 0.0], 10_000).unwrap();
-//! let (x, y) = camera.predict(&r, (79.5, 59.5)).unwrap();
-//! assert!((x - 79.5).abs() < 1e-3 && (y - 63.66).abs() < 0.01);
-//! ```
 
 use super::model::{to_point, Homography, MAX_COORDINATE};
 use super::rotation::Rotation;
@@ -25,7 +7,7 @@ use crate::q16::Point;
 /// The focal length range accepted, pixels.
 ///
 /// ```
-/// use kestrel::ego::camera::FOCAL_RANGE;
+/// use kestrel::ego::FOCAL_RANGE;
 /// assert!(FOCAL_RANGE.contains(&138.6) && !FOCAL_RANGE.contains(&0.0));
 /// ```
 pub const FOCAL_RANGE: core::ops::RangeInclusive<f32> = 1.0..=100_000.0;
@@ -33,7 +15,7 @@ pub const FOCAL_RANGE: core::ops::RangeInclusive<f32> = 1.0..=100_000.0;
 /// The largest distortion coefficient magnitude accepted.
 ///
 /// ```
-/// use kestrel::ego::camera::MAX_DISTORTION;
+/// use kestrel::ego::MAX_DISTORTION;
 /// use kestrel::ego::{Camera, CameraError, CameraParams};
 /// let p = CameraParams { k2: -2.0 * MAX_DISTORTION, ..CameraParams::from_horizontal_fov(64, 48, 1.0) };
 /// assert_eq!(Camera::new(p).unwrap_err(), CameraError::BadDistortion);
@@ -129,6 +111,26 @@ impl core::fmt::Display for CameraError {
     }
 }
 
+/// Pinhole camera with radial distortion, and gyro derotation.
+///
+/// Intrinsics follow OpenCV: focal lengths `fx`, `fy` and principal point `(cx, cy)` in
+/// pixels, radial distortion `x_d = x_u (1 + k1 r² + k2 r⁴)` on normalised coordinates. Axes
+/// and rotation signs are described in [`Rotation`](super::Rotation).
+///
+/// Pure rotation moves every pixel by the infinite homography `H = K Rᵀ K⁻¹`, whatever the
+/// depth, so a gyro reading predicts where each point goes: a good initial guess for LK in fast
+/// turns, and the rotational flow to remove before the remaining flow says how the camera
+/// translated.
+///
+/// ```
+/// use kestrel::ego::{Camera, CameraParams, Rotation};
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0472)).unwrap();
+/// // 10 ms of pitching up at 3 rad/s: the scene slides down the image by about 4 px.
+/// let r = Rotation::from_body_rates([0.0, 3.0, 0.0], 10_000).unwrap();
+/// let (x, y) = camera.predict(&r, (79.5, 59.5)).unwrap();
+/// assert!((x - 79.5).abs() < 1e-3 && (y - 63.66).abs() < 0.01);
+/// ```
+///
 /// A validated pinhole camera.
 ///
 /// ```

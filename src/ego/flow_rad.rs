@@ -1,42 +1,4 @@
 //! The MAVLink OPTICAL_FLOW_RAD accumulator, and the OPTICAL_FLOW reading of the same integration.
-//!
-//! An angular-rate flow sensor integrates flow and gyro between readouts: the camera may run at
-//! 100 Hz while the autopilot reads 20 times a second. Per frame pair, [`FlowRadAccumulator::add`]
-//! takes the fitted motion, the frame interval and (optionally) the gyro integrated over it, and
-//! adds
-//!
-//! - the angular flow at the principal point ([`Camera::angular_flow`]) to `integrated_x/y`,
-//! - the interval to `integration_time_us`,
-//! - the gyro rotation vector to `integrated_xgyro/ygyro/zgyro`,
-//!
-//! all in the sensor frame with MAVLink's signs (see [`super::rotation`]): a right-hand rotation
-//! about X gives positive `integrated_x`, and under pure rotation the flow equals the gyro. PX4
-//! subtracts the gyro itself, so the flow is reported with its rotational part.
-//! [`FlowRadAccumulator::readout`] returns the sums and starts a new integration.
-//!
-//! ```
-//! use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography,
-//!     ModelKind};
-//! let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0)).unwrap();
-//! let mut acc = FlowRadAccumulator::new(camera, 0);
-//! // Two frame pairs in which the image moved 2 px to the right, 10 ms each.
-//! let motion = EgoMotion {
-//!     model: Homography::translation(2.0, 0.0).unwrap(),
-//!     kind: ModelKind::Translation,
-//!     inliers: 60,
-//!     rms_residual: 0.2,
-//!     quality: 200,
-//!     status: EgoStatus::Ok,
-//!     iterations: 3,
-//! };
-//! assert_eq!(acc.add(&motion, 10_000, Some([0.001, 0.0, 0.0])), EgoStatus::Ok);
-//! assert_eq!(acc.add(&motion, 10_000, Some([0.001, 0.0, 0.0])), EgoStatus::Ok);
-//! let flow = acc.readout(1_000_000);
-//! assert_eq!((flow.integration_time_us, flow.quality), (20_000, 200));
-//! assert!((flow.integrated_x - 2.0 * (2.0f32 / 146.44).atan()).abs() < 1e-4);
-//! assert_eq!(flow.integrated_xgyro, Some(0.002));
-//! assert_eq!(acc.frames(), 0);
-//! ```
 
 use super::camera::Camera;
 use super::ransac::{EgoMotion, EgoStatus};
@@ -45,7 +7,7 @@ use super::rotation::Rotation;
 /// The longest frame interval accepted, microseconds.
 ///
 /// ```
-/// use kestrel::ego::flow_rad::MAX_INTERVAL_US;
+/// use kestrel::ego::MAX_INTERVAL_US;
 /// use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind};
 /// let camera = Camera::new(CameraParams::from_horizontal_fov(64, 64, 1.0)).unwrap();
 /// let mut acc = FlowRadAccumulator::new(camera, 0);
@@ -277,6 +239,46 @@ fn deci_pixels(pixels: f32) -> i16 {
     deci
 }
 
+/// The MAVLink OPTICAL_FLOW_RAD accumulator, and the OPTICAL_FLOW reading of the same integration.
+///
+/// An angular-rate flow sensor integrates flow and gyro between readouts: the camera may run at
+/// 100 Hz while the autopilot reads 20 times a second. Per frame pair, [`FlowRadAccumulator::add`]
+/// takes the fitted motion, the frame interval and (optionally) the gyro integrated over it, and
+/// adds
+///
+/// - the angular flow at the principal point ([`Camera::angular_flow`]) to `integrated_x/y`,
+/// - the interval to `integration_time_us`,
+/// - the gyro rotation vector to `integrated_xgyro/ygyro/zgyro`,
+///
+/// all in the sensor frame with MAVLink's signs (see [`Rotation`](super::Rotation)): a right-hand rotation
+/// about X gives positive `integrated_x`, and under pure rotation the flow equals the gyro. PX4
+/// subtracts the gyro itself, so the flow is reported with its rotational part.
+/// [`FlowRadAccumulator::readout`] returns the sums and starts a new integration.
+///
+/// ```
+/// use kestrel::ego::{Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography,
+///     ModelKind};
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(160, 120, 1.0)).unwrap();
+/// let mut acc = FlowRadAccumulator::new(camera, 0);
+/// // Two frame pairs in which the image moved 2 px to the right, 10 ms each.
+/// let motion = EgoMotion {
+///     model: Homography::translation(2.0, 0.0).unwrap(),
+///     kind: ModelKind::Translation,
+///     inliers: 60,
+///     rms_residual: 0.2,
+///     quality: 200,
+///     status: EgoStatus::Ok,
+///     iterations: 3,
+/// };
+/// assert_eq!(acc.add(&motion, 10_000, Some([0.001, 0.0, 0.0])), EgoStatus::Ok);
+/// assert_eq!(acc.add(&motion, 10_000, Some([0.001, 0.0, 0.0])), EgoStatus::Ok);
+/// let flow = acc.readout(1_000_000);
+/// assert_eq!((flow.integration_time_us, flow.quality), (20_000, 200));
+/// assert!((flow.integrated_x - 2.0 * (2.0f32 / 146.44).atan()).abs() < 1e-4);
+/// assert_eq!(flow.integrated_xgyro, Some(0.002));
+/// assert_eq!(acc.frames(), 0);
+/// ```
+///
 /// Integrates frame-to-frame motion and gyro readings into [`OpticalFlowRad`] readouts.
 ///
 /// The readout's `quality` is the rounded mean of the frames' [`EgoMotion::quality`], or 0 when

@@ -1,16 +1,16 @@
 //! Ego-motion: how the camera moved between two frames, and what the autopilot gets from it.
 //!
-//! The data flows through the submodules in this order:
+//! The data flows through its parts in this order, every type at this module's path:
 //!
-//! 1. [`model`]: translation, similarity, affine and homography models fitted to tracks by
-//!    least squares; every model is reported as a [`Homography`].
-//! 2. [`ransac`]: deterministic, bounded-time robust estimation of the dominant motion, with
+//! 1. [`fit`]: translation, similarity, affine and homography models ([`ModelKind`]) fitted to
+//!    tracks by least squares; every model is reported as a [`Homography`].
+//! 2. [`Ransac`]: deterministic, bounded-time robust estimation of the dominant motion, with
 //!    an inlier count, a residual and a quality figure: [`EgoMotion`].
-//! 3. [`rotation`] and [`camera`]: gyro rotations in PX4's sensor frame, a pinhole camera with
+//! 3. [`Rotation`] and [`Camera`]: gyro rotations in PX4's sensor frame, a pinhole camera with
 //!    radial distortion, and derotation: the rotational flow a gyro predicts, to seed LK in fast
 //!    turns and to remove from the measured flow.
-//! 4. [`flow_rad`]: the MAVLink OPTICAL_FLOW_RAD accumulator, with PX4's sign conventions, and
-//!    the OPTICAL_FLOW reading of the same integration (ArduPilot's message).
+//! 4. [`FlowRadAccumulator`]: the MAVLink OPTICAL_FLOW_RAD accumulator, with PX4's sign
+//!    conventions, and the OPTICAL_FLOW reading of the same integration (ArduPilot's message).
 //! 5. `mavlink` (feature `mavlink`): OPTICAL_FLOW_RAD, OPTICAL_FLOW and HEARTBEAT as MAVLink 2
 //!    frames, and what PX4 and ArduPilot expect of them.
 //!
@@ -44,16 +44,18 @@
 
 mod linalg;
 
-pub mod camera;
-pub mod flow_rad;
+mod camera;
+mod flow_rad;
 #[cfg(feature = "mavlink")]
 pub mod mavlink;
-pub mod model;
-pub mod ransac;
-pub mod rotation;
+mod model;
+mod ransac;
+mod rotation;
 
-pub use camera::{Camera, CameraError, CameraParams};
-pub use flow_rad::{FlowRadAccumulator, OpticalFlow, OpticalFlowRad};
-pub use model::{fit, Correspondence, FitError, Homography, ModelKind};
-pub use ransac::{EgoMotion, EgoStatus, Ransac, RansacError, RansacParams, DEFAULT_SEED};
+pub use camera::{Camera, CameraError, CameraParams, FOCAL_RANGE, MAX_DISTORTION};
+pub use flow_rad::{FlowRadAccumulator, OpticalFlow, OpticalFlowRad, MAX_INTERVAL_US};
+pub use model::{fit, Correspondence, FitError, Homography, ModelKind, MAX_COORDINATE};
+pub use ransac::{
+    EgoMotion, EgoStatus, Ransac, RansacError, RansacParams, DEFAULT_SEED, FULL_SUPPORT, MAX_REFITS,
+};
 pub use rotation::{GyroError, Rotation, MAX_BODY_RATE, MAX_ROTATION};

@@ -1,37 +1,4 @@
 //! Motion models fitted to point correspondences, all reported as a [`Homography`].
-//!
-//! | Model | Degrees of freedom | Minimal sample | Least-squares fit |
-//! |---|---|---|---|
-//! | [`ModelKind::Translation`] | 2 | 1 | mean displacement |
-//! | [`ModelKind::Similarity`] | 4 | 2 | closed form on centred points (rotation and scale, no reflection) |
-//! | [`ModelKind::Affine`] | 6 | 3 | closed form on centred points |
-//! | [`ModelKind::Homography`] | 8 | 4 | normalised DLT |
-//!
-//! The homography fit is Hartley's normalised DLT with `h33 = 1`: both point sets are moved to
-//! their centroid and scaled to an RMS distance of √2, the 8 x 8 normal equations are
-//! accumulated in `f32` and solved by Gaussian elimination with partial pivoting, and the result
-//! is mapped back to pixels. Normalisation keeps the normal equations well conditioned, so `f32`
-//! loses well under 0.001 px at the image corners. Four points are solved exactly instead (the
-//! RANSAC samples), after checking that no three of them are collinear.
-//!
-//! A fit fails with [`FitError::Degenerate`] rather than returning a meaningless model: points
-//! that coincide, points on one line (affine and homography), a singular system, or a result that
-//! is not invertible. Non-finite or out-of-range coordinates are [`FitError::BadInput`].
-//!
-//! ```
-//! use kestrel::ego::{fit, Homography, ModelKind};
-//! // Four tracks shifted by (2, -1) and a fifth one too.
-//! let tracks = [
-//!     ((10.0, 10.0), (12.0, 9.0)),
-//!     ((90.0, 12.0), (92.0, 11.0)),
-//!     ((85.0, 70.0), (87.0, 69.0)),
-//!     ((15.0, 75.0), (17.0, 74.0)),
-//!     ((50.0, 40.0), (52.0, 39.0)),
-//! ];
-//! let h = fit(ModelKind::Homography, &tracks).unwrap();
-//! let (x, y) = h.apply((30.0, 30.0)).unwrap();
-//! assert!((x - 32.0).abs() < 1e-3 && (y - 29.0).abs() < 1e-3);
-//! ```
 
 use super::linalg::{mul3, solve, sqrt};
 use crate::q16::Point;
@@ -39,7 +6,7 @@ use crate::q16::Point;
 /// The largest coordinate magnitude accepted, in pixels (twice the Q16 range).
 ///
 /// ```
-/// use kestrel::ego::{fit, model::MAX_COORDINATE, FitError, ModelKind};
+/// use kestrel::ego::{fit, FitError, ModelKind, MAX_COORDINATE};
 /// let far = [((MAX_COORDINATE * 2.0, 0.0), (0.0, 0.0))];
 /// assert_eq!(fit(ModelKind::Translation, &far), Err(FitError::BadInput));
 /// ```
@@ -363,10 +330,43 @@ impl Homography {
     }
 }
 
-/// Fits a model to all `pairs` by least squares.
+/// Fits a model to all `pairs` by least squares: motion models fitted to point
+/// correspondences, all reported as a [`Homography`].
 ///
-/// Two correspondences fit a similarity exactly, three an affine map, four a homography. See
-/// the [module documentation](self) for the methods and the degeneracy tests.
+/// | Model | Degrees of freedom | Minimal sample | Least-squares fit |
+/// |---|---|---|---|
+/// | [`ModelKind::Translation`] | 2 | 1 | mean displacement |
+/// | [`ModelKind::Similarity`] | 4 | 2 | closed form on centred points (rotation and scale, no reflection) |
+/// | [`ModelKind::Affine`] | 6 | 3 | closed form on centred points |
+/// | [`ModelKind::Homography`] | 8 | 4 | normalised DLT |
+///
+/// The homography fit is Hartley's normalised DLT with `h33 = 1`: both point sets are moved to
+/// their centroid and scaled to an RMS distance of √2, the 8 x 8 normal equations are
+/// accumulated in `f32` and solved by Gaussian elimination with partial pivoting, and the result
+/// is mapped back to pixels. Normalisation keeps the normal equations well conditioned, so `f32`
+/// loses well under 0.001 px at the image corners. Four points are solved exactly instead (the
+/// RANSAC samples), after checking that no three of them are collinear.
+///
+/// A fit fails with [`FitError::Degenerate`] rather than returning a meaningless model: points
+/// that coincide, points on one line (affine and homography), a singular system, or a result that
+/// is not invertible. Non-finite or out-of-range coordinates are [`FitError::BadInput`].
+///
+/// ```
+/// use kestrel::ego::{fit, Homography, ModelKind};
+/// // Four tracks shifted by (2, -1) and a fifth one too.
+/// let tracks = [
+///     ((10.0, 10.0), (12.0, 9.0)),
+///     ((90.0, 12.0), (92.0, 11.0)),
+///     ((85.0, 70.0), (87.0, 69.0)),
+///     ((15.0, 75.0), (17.0, 74.0)),
+///     ((50.0, 40.0), (52.0, 39.0)),
+/// ];
+/// let h = fit(ModelKind::Homography, &tracks).unwrap();
+/// let (x, y) = h.apply((30.0, 30.0)).unwrap();
+/// assert!((x - 32.0).abs() < 1e-3 && (y - 29.0).abs() < 1e-3);
+/// ```
+///
+/// Two correspondences fit a similarity exactly, three an affine map, four a homography.
 ///
 /// ```
 /// use kestrel::ego::{fit, FitError, ModelKind};

@@ -1,39 +1,4 @@
 //! Deterministic, bounded-time robust estimation of the dominant motion (RANSAC).
-//!
-//! Each iteration draws a minimal sample with a seeded SplitMix64 generator, fits it exactly,
-//! drops implausible models (mirrored, or folding a sample point over the horizon) and scores
-//! the model by MSAC: the sum over all tracks of the squared transfer error, truncated at the
-//! squared threshold. The lowest cost wins. After each improvement the iteration budget shrinks
-//! to the usual `log(1 - confidence) / log(1 - w^s)` for inlier share `w` and sample size `s`,
-//! never beyond [`RansacParams::max_iterations`]; every draw counts, degenerate ones too, so the
-//! work is at most `max_iterations x tracks` transfer errors, plus [`MAX_REFITS`] refits of
-//! four passes each.
-//!
-//! The best model is then refined: a least-squares fit on its inliers, a new inlier pass, and
-//! so on until the inlier set stops changing (at most [`MAX_REFITS`] fits), each fit kept only
-//! if it does not raise the cost. The generator restarts from the seed on every call, so the
-//! same tracks always give the same result, bit for bit, on the host and on the target alike.
-//!
-//! ```
-//! use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
-//! // A 6 x 5 grid shifted by (1.5, -0.5), and two tracks on a moving object.
-//! let mut tracks = [((0.0f32, 0.0f32), (0.0f32, 0.0f32)); 32];
-//! for (i, t) in tracks.iter_mut().enumerate() {
-//!     let (x, y) = ((i % 6) as f32 * 20.0 + 10.0, (i / 6) as f32 * 20.0 + 10.0);
-//!     *t = ((x, y), (x + 1.5, y - 0.5));
-//! }
-//! tracks[30] = ((50.0, 50.0), (58.0, 50.0));
-//! tracks[31] = ((60.0, 50.0), (68.0, 50.0));
-//!
-//! let ransac = Ransac::new(RansacParams { model: ModelKind::Translation, ..Default::default() })
-//!     .unwrap();
-//! let mut inliers = [false; 32];
-//! let motion = ransac.estimate(&tracks, &mut inliers).unwrap();
-//! assert_eq!(motion.status, EgoStatus::Ok);
-//! assert_eq!(motion.inliers, 30);
-//! assert!(!inliers[30] && !inliers[31]);
-//! assert_eq!(motion.model.apply((0.0, 0.0)), Some((1.5, -0.5)));
-//! ```
 
 use super::linalg::sqrt;
 use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair};
@@ -61,7 +26,7 @@ pub const DEFAULT_SEED: u64 = 0x4B45_5354_5245_4C21;
 /// Inliers from which the count no longer limits [`EgoMotion::quality`].
 ///
 /// ```
-/// use kestrel::ego::ransac::FULL_SUPPORT;
+/// use kestrel::ego::FULL_SUPPORT;
 /// use kestrel::ego::{ModelKind, Ransac, RansacParams};
 /// let ransac = Ransac::new(RansacParams { model: ModelKind::Translation, ..Default::default() })
 ///     .unwrap();
@@ -82,7 +47,7 @@ pub const FULL_SUPPORT: u16 = 32;
 /// consensus of the whole frame, and the set usually stops changing after two or three.
 ///
 /// ```
-/// use kestrel::ego::ransac::MAX_REFITS;
+/// use kestrel::ego::MAX_REFITS;
 /// assert!(MAX_REFITS >= 2);
 /// ```
 pub const MAX_REFITS: usize = 8;
@@ -268,6 +233,43 @@ impl core::fmt::Display for RansacError {
 /// The largest inlier threshold accepted, pixels.
 const MAX_THRESHOLD: f32 = 1000.0;
 
+/// Deterministic, bounded-time robust estimation of the dominant motion (RANSAC).
+///
+/// Each iteration draws a minimal sample with a seeded SplitMix64 generator, fits it exactly,
+/// drops implausible models (mirrored, or folding a sample point over the horizon) and scores
+/// the model by MSAC: the sum over all tracks of the squared transfer error, truncated at the
+/// squared threshold. The lowest cost wins. After each improvement the iteration budget shrinks
+/// to the usual `log(1 - confidence) / log(1 - w^s)` for inlier share `w` and sample size `s`,
+/// never beyond [`RansacParams::max_iterations`]; every draw counts, degenerate ones too, so the
+/// work is at most `max_iterations x tracks` transfer errors, plus [`MAX_REFITS`] refits of
+/// four passes each.
+///
+/// The best model is then refined: a least-squares fit on its inliers, a new inlier pass, and
+/// so on until the inlier set stops changing (at most [`MAX_REFITS`] fits), each fit kept only
+/// if it does not raise the cost. The generator restarts from the seed on every call, so the
+/// same tracks always give the same result, bit for bit, on the host and on the target alike.
+///
+/// ```
+/// use kestrel::ego::{EgoStatus, ModelKind, Ransac, RansacParams};
+/// // A 6 x 5 grid shifted by (1.5, -0.5), and two tracks on a moving object.
+/// let mut tracks = [((0.0f32, 0.0f32), (0.0f32, 0.0f32)); 32];
+/// for (i, t) in tracks.iter_mut().enumerate() {
+///     let (x, y) = ((i % 6) as f32 * 20.0 + 10.0, (i / 6) as f32 * 20.0 + 10.0);
+///     *t = ((x, y), (x + 1.5, y - 0.5));
+/// }
+/// tracks[30] = ((50.0, 50.0), (58.0, 50.0));
+/// tracks[31] = ((60.0, 50.0), (68.0, 50.0));
+///
+/// let ransac = Ransac::new(RansacParams { model: ModelKind::Translation, ..Default::default() })
+///     .unwrap();
+/// let mut inliers = [false; 32];
+/// let motion = ransac.estimate(&tracks, &mut inliers).unwrap();
+/// assert_eq!(motion.status, EgoStatus::Ok);
+/// assert_eq!(motion.inliers, 30);
+/// assert!(!inliers[30] && !inliers[31]);
+/// assert_eq!(motion.model.apply((0.0, 0.0)), Some((1.5, -0.5)));
+/// ```
+///
 /// A validated robust estimator: parameters checked once, reused for every frame.
 ///
 /// ```

@@ -1,28 +1,4 @@
 //! Gyro rotations over a frame interval, and the axes they are expressed in.
-//!
-//! # Axes
-//!
-//! - **Pixels**: origin at the centre of the top-left pixel, x to the right, y down.
-//! - **Camera frame** (OpenCV): x to the right of the image, y down the image, z forward along
-//!   the optical axis.
-//! - **Sensor frame**: PX4's optical flow sensor frame, in which the gyro rates and every
-//!   OPTICAL_FLOW_RAD field are expressed. X points to the top of the image, Y to the right of
-//!   the image, Z along the optical axis. Mounted looking down with the top of the image
-//!   towards the nose (PX4's `SENS_FLOW_ROT` = 0), these are the vehicle's forward-right-down
-//!   body axes; other mountings are a yaw rotation for `SENS_FLOW_ROT`.
-//!
-//! So camera `(x, y, z)` = sensor `(Y, -X, Z)`. Rotations are right-handed: a positive rate
-//! about sensor X (roll right) swings the optical axis towards the left of the vehicle, and the
-//! scene moves right in the image. That is why, in MAVLink's convention, a right-hand rotation
-//! about X gives positive `integrated_x` and, under pure rotation, the angular flow equals the
-//! integrated gyro.
-//!
-//! ```
-//! use kestrel::ego::Rotation;
-//! // 20 ms of roll at 2 rad/s.
-//! let r = Rotation::from_body_rates([2.0, 0.0, 0.0], 20_000).unwrap();
-//! assert!((r.vector()[0] - 0.04).abs() < 1e-6);
-//! ```
 
 use super::linalg::sqrt;
 
@@ -70,6 +46,32 @@ impl core::fmt::Display for GyroError {
     }
 }
 
+/// Gyro rotations over a frame interval, and the axes they are expressed in.
+///
+/// # Axes
+///
+/// - **Pixels**: origin at the centre of the top-left pixel, x to the right, y down.
+/// - **Camera frame** (OpenCV): x to the right of the image, y down the image, z forward along
+///   the optical axis.
+/// - **Sensor frame**: PX4's optical flow sensor frame, in which the gyro rates and every
+///   OPTICAL_FLOW_RAD field are expressed. X points to the top of the image, Y to the right of
+///   the image, Z along the optical axis. Mounted looking down with the top of the image
+///   towards the nose (PX4's `SENS_FLOW_ROT` = 0), these are the vehicle's forward-right-down
+///   body axes; other mountings are a yaw rotation for `SENS_FLOW_ROT`.
+///
+/// So camera `(x, y, z)` = sensor `(Y, -X, Z)`. Rotations are right-handed: a positive rate
+/// about sensor X (roll right) swings the optical axis towards the left of the vehicle, and the
+/// scene moves right in the image. That is why, in MAVLink's convention, a right-hand rotation
+/// about X gives positive `integrated_x` and, under pure rotation, the angular flow equals the
+/// integrated gyro.
+///
+/// ```
+/// use kestrel::ego::Rotation;
+/// // 20 ms of roll at 2 rad/s.
+/// let r = Rotation::from_body_rates([2.0, 0.0, 0.0], 20_000).unwrap();
+/// assert!((r.vector()[0] - 0.04).abs() < 1e-6);
+/// ```
+///
 /// The sensor's rotation over one frame interval, from the gyro.
 ///
 /// Holds the rotation vector in the sensor frame (right-handed, radians: the integrated gyro)

@@ -8,12 +8,12 @@
 //! readout with quality 0 carries no flow. Every encoded frame decodes back to the readout.
 
 use arbitrary::Arbitrary;
-use kestrel::ego::camera::{FOCAL_RANGE, MAX_DISTORTION};
-use kestrel::ego::model::MAX_COORDINATE;
+use kestrel::ego::MAX_COORDINATE;
 use kestrel::ego::{
     fit, Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography, ModelKind,
     OpticalFlowRad, Ransac, RansacError, RansacParams, Rotation,
 };
+use kestrel::ego::{FOCAL_RANGE, MAX_DISTORTION};
 use kestrel::Point;
 
 /// A track: its previous and next position, pixels.

@@ -3,7 +3,7 @@
 //! A log is a CSV file with the columns `t_us,gx,gy,gz`: time in microseconds on the frames'
 //! clock (frame 0 at 0, see [`super::FrameClock`]), then the body rates in rad/s about the
 //! sensor axes of PX4's optical-flow convention (X to the top of the image, Y to its right, Z
-//! along the optical axis; see `kestrel::ego::rotation`). Rates are taken to vary linearly
+//! along the optical axis; see `kestrel::ego::Rotation`). Rates are taken to vary linearly
 //! between samples, so a constant rate is integrated exactly however it is sampled.
 //!
 //! Times must be finite and increasing. Rates are read as they are: NaN, infinities and absurd

@@ -30,8 +30,8 @@ use std::time::Instant;
 
 use kestrel::ego::{EgoStatus, FlowRadAccumulator, OpticalFlow, OpticalFlowRad, Rotation};
 
-use kestrel::ego::camera::FOCAL_RANGE;
 use kestrel::ego::ModelKind;
+use kestrel::ego::FOCAL_RANGE;
 
 use super::motion::{input, INPUT_HELP};
 use super::CommandError;

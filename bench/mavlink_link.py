@@ -16,7 +16,7 @@ tcp:...`), and parses the bytes with pymavlink's MAVLink 2 parser as they arrive
   flow per second, flow_x/y the same flow in deci-pixels;
 - the counts against the firmware's own `link` record, nothing dropped, and `result pass`.
 
-With `--example NAME` it runs firmware/examples/NAME.rs instead (bench/template_link.sh: the
+With `--example NAME` it runs firmware/examples/NAME.rs instead (bench/mavlink_link.sh --example flow_sensor: the
 template `flow_sensor`), which prints only `link bytes=N frame_clock_us=N` and exits with
 success at the end of its recording. Its camera may lose a frame: a readout after one may
 integrate several frame intervals (its flow then that many steps of the motion), and at least
@@ -24,7 +24,7 @@ one readout must be of quality 0. The counts are checked against its frame clock
 
 The last line is `heartbeat=N optical_flow_rad=N optical_flow=N crc_errors=N gaps=N`; the exit
 status is non-zero when any check fails. Usage: bench/mavlink_link.py [--example NAME] (after
-building the firmware; bench/mavlink_link.sh and bench/template_link.sh do both).
+building the firmware; bench/mavlink_link.sh (with or without `--example NAME`) does both).
 """
 
 import argparse

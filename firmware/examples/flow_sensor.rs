@@ -8,7 +8,7 @@
 //!
 //! `cargo run --release --example flow_sensor` runs it in QEMU on the frames `build.rs` renders
 //! into flash, played back and forth for 2 s with one transfer cut short;
-//! `bench/template_link.sh` decodes its USART2 with pymavlink. On a board, change:
+//! `bench/mavlink_link.sh --example flow_sensor` decodes its USART2 with pymavlink. On a board, change:
 //!
 //! - [`Camera`]: start the DCMI's DMA into `static` frame buffers and return each completed
 //!   one with its capture time. Keep three, so the DMA fills one while the sensor reads the

@@ -43,6 +43,33 @@ pub struct Picture {
     pub change: Change,
 }
 
+/// A frame a sequence target (the tracker's, the flow sensor's) is given, at `size` unless it
+/// says otherwise.
+#[derive(Arbitrary, Debug)]
+pub enum FrameInput {
+    /// The scene, moved and relit.
+    Scene(Change),
+    /// Another picture at the sequence's size.
+    Other(Picture),
+    /// A picture at its own size (usually not the sequence's).
+    Resized(Picture),
+}
+
+impl FrameInput {
+    /// The frame, with `scene` as the sequence's picture and `size` its frames' size.
+    pub fn render(&self, scene: &Picture, (w, h): (usize, usize)) -> Frame {
+        match self {
+            FrameInput::Scene(change) => Picture {
+                change: *change,
+                ..scene.clone()
+            }
+            .render_at(w, h),
+            FrameInput::Other(picture) => picture.render_at(w, h),
+            FrameInput::Resized(picture) => picture.render(),
+        }
+    }
+}
+
 /// A frame buffer and the geometry it is meant to have.
 #[derive(Debug, Clone)]
 pub struct Frame {

@@ -8,7 +8,7 @@
 //! reading must be finite, and its quality 0 whenever a frame since the last readout was
 //! refused or spoilt the integration.
 
-use super::picture::{Change, Frame, Picture};
+use super::picture::{Change, Frame, FrameInput, Picture};
 use arbitrary::Arbitrary;
 use kestrel::detect::Corner;
 use kestrel::ego::{Camera, CameraParams, EgoStatus, ModelKind, Ransac, RansacParams};
@@ -53,16 +53,6 @@ enum Step {
     },
     Refuse(u32),
     Readout(u32),
-}
-
-#[derive(Arbitrary, Debug)]
-enum FrameInput {
-    /// The scene, moved and relit.
-    Scene(Change),
-    /// Another picture at the sensor's size.
-    Other(Picture),
-    /// A picture at its own size (usually not the sensor's).
-    Resized(Picture),
 }
 
 /// The decoded input, for reading a crash.
@@ -152,16 +142,7 @@ struct Model<'s, 'i> {
 
 impl Model<'_, '_> {
     fn frame(&self, f: &FrameInput) -> Frame {
-        let (w, h) = self.size;
-        match f {
-            FrameInput::Scene(change) => Picture {
-                change: *change,
-                ..self.input.scene.clone()
-            }
-            .render_at(w, h),
-            FrameInput::Other(picture) => picture.render_at(w, h),
-            FrameInput::Resized(picture) => picture.render(),
-        }
+        f.render(&self.input.scene, self.size)
     }
 
     fn step(&mut self, step: &Step) {

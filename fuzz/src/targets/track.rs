@@ -8,7 +8,7 @@
 //! never seen before for new tracks, ages and birth frames that follow the frame count, and a
 //! report whose counts add up.
 
-use super::picture::{Change, Frame, Picture};
+use super::picture::{Change, Frame, FrameInput, Picture};
 use arbitrary::Arbitrary;
 use kestrel::detect::fast::Fast;
 use kestrel::detect::grid::Grid;
@@ -72,16 +72,6 @@ enum Step {
         next: FrameInput,
         predict: Option<Predict>,
     },
-}
-
-#[derive(Arbitrary, Debug)]
-enum FrameInput {
-    /// The scene, moved and relit.
-    Scene(Change),
-    /// Another picture at the tracker's size.
-    Other(Picture),
-    /// A picture at its own size (usually not the tracker's).
-    Resized(Picture),
 }
 
 #[derive(Arbitrary, Debug)]
@@ -239,16 +229,7 @@ struct Model<'t, 'i> {
 
 impl Model<'_, '_> {
     fn frame(&self, f: &FrameInput) -> Frame {
-        let (w, h) = self.size;
-        match f {
-            FrameInput::Scene(change) => Picture {
-                change: *change,
-                ..self.input.scene.clone()
-            }
-            .render_at(w, h),
-            FrameInput::Other(picture) => picture.render_at(w, h),
-            FrameInput::Resized(picture) => picture.render(),
-        }
+        f.render(&self.input.scene, self.size)
     }
 
     fn step(&mut self, step: &Step) {

@@ -382,18 +382,8 @@ impl MotionDetector {
             runner: None,
             size: None,
         };
-        match (width, height) {
-            (None, None) => {}
-            (Some(w), Some(h)) => {
-                let side = 1..=kestrel::frame::MAX_DIMENSION as i64;
-                if !side.contains(&w) || !side.contains(&h) {
-                    return Err(value_error(format!(
-                        "width and height must be 1 to 4096 px: got {w}x{h}"
-                    )));
-                }
-                detector.make(w as usize, h as usize)?;
-            }
-            _ => return Err(value_error("give both width and height, or neither")),
+        if let Some((w, h)) = settings::frame_size(width, height)? {
+            detector.make(w, h)?;
         }
         Ok(detector)
     }

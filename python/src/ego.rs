@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::arrays;
-use crate::settings::value_error;
+use crate::settings::{self, value_error};
 use crate::tracker::Buffers;
 
 fn model_kind(name: &str) -> PyResult<ModelKind> {
@@ -448,18 +448,8 @@ impl FlowSensor {
             frames: 0,
             report: None,
         };
-        match (width, height) {
-            (None, None) => {}
-            (Some(w), Some(h)) => {
-                let side = 1..=kestrel::frame::MAX_DIMENSION as i64;
-                if !side.contains(&w) || !side.contains(&h) {
-                    return Err(value_error(format!(
-                        "width and height must be 1 to 4096 px: got {w}x{h}"
-                    )));
-                }
-                sensor.make(w as usize, h as usize)?;
-            }
-            _ => return Err(value_error("give both width and height, or neither")),
+        if let Some((w, h)) = settings::frame_size(width, height)? {
+            sensor.make(w, h)?;
         }
         Ok(sensor)
     }

@@ -11,6 +11,25 @@ pub fn value_error(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
 }
 
+/// A frame size given as `width` and `height` (both or neither), each 1 to the library's
+/// largest side.
+pub fn frame_size(width: Option<i64>, height: Option<i64>) -> PyResult<Option<(usize, usize)>> {
+    match (width, height) {
+        (None, None) => Ok(None),
+        (Some(w), Some(h)) => {
+            let max = kestrel::frame::MAX_DIMENSION;
+            let side = |v: i64| usize::try_from(v).ok().filter(|v| (1..=max).contains(v));
+            match (side(w), side(h)) {
+                (Some(w), Some(h)) => Ok(Some((w, h))),
+                _ => Err(value_error(format!(
+                    "width and height must be 1 to {max} px: got {w}x{h}"
+                ))),
+            }
+        }
+        _ => Err(value_error("give both width and height, or neither")),
+    }
+}
+
 /// A window side from OpenCV's `winSize` (a `(width, height)` pair) or a single int: odd,
 /// 3 to 63, and square.
 pub fn window(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {

@@ -374,19 +374,7 @@ impl Tracker {
         max_relocation: Option<f64>,
         relocate_every: Option<i64>,
     ) -> PyResult<Self> {
-        let size = match (width, height) {
-            (None, None) => None,
-            (Some(w), Some(h)) => {
-                let side = 1..=kestrel::frame::MAX_DIMENSION as i64;
-                if !side.contains(&w) || !side.contains(&h) {
-                    return Err(value_error(format!(
-                        "width and height must be 1 to 4096 px: got {w}x{h}"
-                    )));
-                }
-                Some((w as usize, h as usize))
-            }
-            _ => return Err(value_error("give both width and height, or neither")),
-        };
+        let size = settings::frame_size(width, height)?;
         let preset = match preset {
             None => None,
             Some("flow_sensor" | "flow-sensor") => Some(Preset::FlowSensor),

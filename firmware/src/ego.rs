@@ -124,9 +124,8 @@ impl Readout {
         &mut self,
         accumulator: &mut FlowRadAccumulator,
     ) -> Result<&OpticalFlowRad, EncodeError> {
-        self.time_usec += u64::from(FRAME_INTERVAL_US);
-        self.reading = accumulator.readout(self.time_usec);
-        self.encode()
+        let time_usec = self.next_time();
+        self.keep(accumulator.readout(time_usec))
     }
 
     /// The time stamp of the next readout: a frame interval after the last.

@@ -15,7 +15,7 @@
 //! were there any, would still be scored as false or not).
 
 use host_sim::dense::{MotionRunner, MotionSettings};
-use host_sim::synth::objects::{BoxPx, ObjectSequence, Scenario};
+use host_sim::synth::objects::{match_boxes, BoxPx, ObjectSequence, Scenario};
 use host_sim::synth::{FlightPath, FlightSequence, SceneSpec};
 
 const FRAMES: usize = 30;
@@ -53,23 +53,8 @@ fn score(sequence: &ObjectSequence, k: usize, boxes: &[BoxPx]) -> FrameScore {
             )
         })
         .collect();
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-    for (t, (_, object, _)) in truth.iter().enumerate() {
-        for (d, b) in boxes.iter().enumerate() {
-            let iou = b.iou(object);
-            if iou >= MIN_IOU {
-                pairs.push((iou, t, d));
-            }
-        }
-    }
-    pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let (mut truth_hit, mut box_hit) = (vec![false; truth.len()], vec![false; boxes.len()]);
-    for (_, t, d) in pairs {
-        if !truth_hit[t] && !box_hit[d] {
-            truth_hit[t] = true;
-            box_hit[d] = true;
-        }
-    }
+    let objects: Vec<BoxPx> = truth.iter().map(|&(_, object, _)| object).collect();
+    let (truth_hit, box_hit) = match_boxes(&objects, boxes, MIN_IOU);
     FrameScore {
         found: truth
             .iter()
@@ -95,12 +80,7 @@ fn run(sequence: &ObjectSequence) -> Vec<FrameScore> {
         let boxes: Vec<BoxPx> = found
             .boxes_in_later_frame(w, h)
             .iter()
-            .map(|b| BoxPx {
-                x: f64::from(b.x),
-                y: f64::from(b.y),
-                w: f64::from(b.w),
-                h: f64::from(b.h),
-            })
+            .map(BoxPx::from)
             .collect();
         scores.push(score(sequence, k, &boxes));
     }

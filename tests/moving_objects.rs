@@ -8,7 +8,7 @@
 //! `cargo test --release --test moving_objects -- --nocapture`.
 
 use host_sim::dense::{MotionRunner, MotionSettings};
-use host_sim::synth::objects::{BoxPx, ObjectSequence, Scenario};
+use host_sim::synth::objects::{match_boxes, BoxPx, ObjectSequence, Scenario};
 use kestrel::dense::grid::{grid_len, GridNode};
 use kestrel::dense::mask::mask_words;
 use kestrel::dense::motion::motion_scratch_len;
@@ -127,31 +127,8 @@ fn score(sequence: &ObjectSequence, found: &[Vec<MotionBox>]) -> (usize, usize, 
             .into_iter()
             .filter(|b| k >= 2 && b.clip(W, H).area() >= 0.5 * b.area())
             .collect();
-        let found: Vec<BoxPx> = found
-            .iter()
-            .map(|b| BoxPx {
-                x: f64::from(b.x),
-                y: f64::from(b.y),
-                w: f64::from(b.w),
-                h: f64::from(b.h),
-            })
-            .collect();
-        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-        for (t, object) in truth.iter().enumerate() {
-            for (d, b) in found.iter().enumerate() {
-                let iou = b.iou(object);
-                if iou >= 0.3 {
-                    pairs.push((iou, t, d));
-                }
-            }
-        }
-        pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let (mut truth_hit, mut box_hit) = (vec![false; truth.len()], vec![false; found.len()]);
-        for (_, t, d) in pairs {
-            if !truth_hit[t] && !box_hit[d] {
-                (truth_hit[t], box_hit[d]) = (true, true);
-            }
-        }
+        let found: Vec<BoxPx> = found.iter().map(BoxPx::from).collect();
+        let (truth_hit, box_hit) = match_boxes(&truth, &found, 0.3);
         asked += truth.len();
         hits += truth_hit.iter().filter(|&&h| h).count();
         boxes += found.len();

@@ -31,6 +31,7 @@ use super::scene::{Scene, SceneSpec};
 use super::sequence::CameraPath;
 use super::texture::value_noise;
 use crate::Frame;
+use kestrel::dense::regions::MotionBox;
 
 /// An axis-aligned box in pixels: `x..x + w` by `y..y + h` (pixel edges, so a box from 0 to
 /// 10 covers pixels 0 to 9).
@@ -44,6 +45,55 @@ pub struct BoxPx {
     pub w: f64,
     /// Height.
     pub h: f64,
+}
+
+impl From<&MotionBox> for BoxPx {
+    /// A detector's box in pixels.
+    ///
+    /// ```
+    /// use host_sim::synth::objects::BoxPx;
+    /// use kestrel::dense::regions::MotionBox;
+    /// let found = MotionBox { x: 8, y: 16, w: 24, h: 12, ..MotionBox::default() };
+    /// assert_eq!(BoxPx::from(&found), BoxPx { x: 8.0, y: 16.0, w: 24.0, h: 12.0 });
+    /// ```
+    fn from(b: &MotionBox) -> Self {
+        BoxPx {
+            x: f64::from(b.x),
+            y: f64::from(b.y),
+            w: f64::from(b.w),
+            h: f64::from(b.h),
+        }
+    }
+}
+
+/// Matches `found` boxes to `truth` boxes overlapping by at least `min_iou`, best overlaps
+/// first, each at most once: which truth boxes and which found boxes were matched.
+///
+/// ```
+/// use host_sim::synth::objects::{match_boxes, BoxPx};
+/// let b = |x: f64| BoxPx { x, y: 0.0, w: 10.0, h: 10.0 };
+/// // Two found boxes on the first object: the closer one takes it, the other is false.
+/// let (truth_hit, found_hit) = match_boxes(&[b(0.0), b(50.0)], &[b(4.0), b(1.0)], 0.3);
+/// assert_eq!((truth_hit, found_hit), (vec![true, false], vec![false, true]));
+/// ```
+pub fn match_boxes(truth: &[BoxPx], found: &[BoxPx], min_iou: f64) -> (Vec<bool>, Vec<bool>) {
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (t, object) in truth.iter().enumerate() {
+        for (d, b) in found.iter().enumerate() {
+            let iou = b.iou(object);
+            if iou >= min_iou {
+                pairs.push((iou, t, d));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (mut truth_hit, mut found_hit) = (vec![false; truth.len()], vec![false; found.len()]);
+    for (_, t, d) in pairs {
+        if !truth_hit[t] && !found_hit[d] {
+            (truth_hit[t], found_hit[d]) = (true, true);
+        }
+    }
+    (truth_hit, found_hit)
 }
 
 impl BoxPx {

@@ -10,9 +10,7 @@ use host_sim::synth::{pair, Homography, SceneSpec};
 use host_sim::tracking::{config_for, HostBuffers};
 use host_sim::Frame;
 use kestrel::dense::grid::DenseParams;
-use kestrel::detect::fast::{self, Fast};
-use kestrel::detect::shi_tomasi::{self, ShiTomasi};
-use kestrel::detect::{Corner, Region};
+use kestrel::detect::{fast_scratch_len, shi_tomasi_scratch_len, Corner, Fast, Region, ShiTomasi};
 use kestrel::ego::{ModelKind, Ransac, RansacParams};
 use kestrel::frame::ImageView;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
@@ -46,11 +44,11 @@ fn bench_detectors(c: &mut Criterion) {
     let region = Region::full(&image);
     let mut corners = vec![Corner::default(); 300];
     let mut group = c.benchmark_group("detection 160x120, 300 corners");
-    let mut fast_rows = vec![0u8; fast::scratch_len(WIDTH)];
+    let mut fast_rows = vec![0u8; fast_scratch_len(WIDTH)];
     group.bench_function("FAST-9, threshold 10", |b| {
         b.iter(|| Fast::default().detect(&image, region, None, &mut fast_rows, &mut corners))
     });
-    let mut sums = vec![0i32; shi_tomasi::scratch_len(WIDTH, corners.len())];
+    let mut sums = vec![0i32; shi_tomasi_scratch_len(WIDTH, corners.len())];
     group.bench_function("Shi-Tomasi, block 3", |b| {
         b.iter(|| ShiTomasi::default().detect(&image, region, None, &mut sums, &mut corners))
     });

@@ -3,10 +3,10 @@
 
 use imageproc::corners::{corners_fast9, fast_corner_score, Fast as FastVariant};
 use imageproc::image::GrayImage;
-use kestrel::detect::fast::{self, fast9_score, Fast};
-use kestrel::detect::grid::Grid;
-use kestrel::detect::shi_tomasi::{self, min_eigen_score, ShiTomasi};
-use kestrel::detect::{Corner, DetectError, ExclusionMask, Region};
+use kestrel::detect::{
+    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, DetectError,
+    ExclusionMask, Fast, Grid, Region, ShiTomasi,
+};
 use kestrel::frame::ImageView;
 use kestrel::Point;
 use std::collections::{BTreeMap, BTreeSet};
@@ -122,7 +122,7 @@ fn run_fast(
     region: Region,
     mask: Option<&ExclusionMask>,
 ) -> Vec<Corner> {
-    let mut scratch = vec![0u8; fast::scratch_len(frame.width)];
+    let mut scratch = vec![0u8; fast_scratch_len(frame.width)];
     let mut out = vec![Corner::default(); frame.width * frame.height];
     let n = fast
         .detect(&frame.view(), region, mask, &mut scratch, &mut out)
@@ -485,7 +485,7 @@ fn fast_capacity_keeps_the_strongest() {
     let full = run_fast(&frame, Fast::default(), Region::full(&frame.view()), None);
     assert!(full.len() > 50);
     for capacity in [0, 1, 7, 50] {
-        let mut scratch = vec![0u8; fast::scratch_len(160)];
+        let mut scratch = vec![0u8; fast_scratch_len(160)];
         let mut out = vec![Corner::default(); capacity];
         let n = Fast::default()
             .detect(
@@ -507,7 +507,7 @@ fn fast_bad_input_is_harmless() {
     let view = frame.view();
     let fast = Fast::default();
     let mut out = [Corner::default(); 16];
-    let mut scratch = [0u8; fast::scratch_len(64)];
+    let mut scratch = [0u8; fast_scratch_len(64)];
     for region in [
         Region::new(10, 10, 0, 5),
         Region::new(64, 0, 10, 10),
@@ -539,7 +539,7 @@ fn fast_bad_input_is_harmless() {
     // Frames smaller than the circle.
     for (w, h) in [(1, 1), (6, 6), (7, 7), (100, 6), (6, 100)] {
         let tiny = Frame::noise(w, h, 4);
-        let mut scratch = vec![0u8; fast::scratch_len(w)];
+        let mut scratch = vec![0u8; fast_scratch_len(w)];
         let region = Region::full(&tiny.view());
         assert!(fast
             .detect(&tiny.view(), region, None, &mut scratch, &mut out)
@@ -679,7 +679,7 @@ fn run_shi_tomasi(
     mask: Option<&ExclusionMask>,
     capacity: usize,
 ) -> Vec<Corner> {
-    let mut scratch = vec![0i32; shi_tomasi::scratch_len(frame.width, capacity)];
+    let mut scratch = vec![0i32; shi_tomasi_scratch_len(frame.width, capacity)];
     let mut out = vec![Corner::default(); capacity];
     let n = params
         .detect(&frame.view(), region, mask, &mut scratch, &mut out)
@@ -802,7 +802,7 @@ fn shi_tomasi_bad_input_is_harmless() {
     let full = Region::full(&view);
     let st = ShiTomasi::default();
     let mut out = [Corner::default(); 16];
-    let mut scratch = vec![0i32; shi_tomasi::scratch_len(64, 16)];
+    let mut scratch = vec![0i32; shi_tomasi_scratch_len(64, 16)];
     for block in [0, 1, 2, 4, 9, usize::MAX] {
         let bad = ShiTomasi { block, ..st };
         assert_eq!(
@@ -844,7 +844,7 @@ fn shi_tomasi_bad_input_is_harmless() {
     );
     for (w, h) in [(1, 1), (4, 4), (5, 5), (6, 6), (200, 3), (3, 200)] {
         let tiny = Frame::noise(w, h, 5);
-        let mut scratch = vec![0i32; shi_tomasi::scratch_len(w, 16)];
+        let mut scratch = vec![0i32; shi_tomasi_scratch_len(w, 16)];
         for block in [3, 5, 7] {
             let st = ShiTomasi { block, ..st };
             let region = Region::full(&tiny.view());

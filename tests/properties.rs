@@ -24,9 +24,7 @@ use host_sim::Frame;
 use kestrel::dense::dominant::FitParams;
 use kestrel::dense::grid::{DenseParams, NodeStatus};
 use kestrel::dense::motion::MotionParams;
-use kestrel::detect::fast::Fast;
-use kestrel::detect::grid::Grid;
-use kestrel::detect::shi_tomasi::ShiTomasi;
+use kestrel::detect::{Fast, Grid, ShiTomasi};
 use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
 use kestrel::ego::{
     Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, Ransac, RansacParams,

@@ -546,9 +546,8 @@ fn small_config() -> TrackerConfig {
 
 #[test]
 fn bad_settings_are_refused_when_the_tracker_is_made() {
-    use kestrel::detect::grid::Grid;
-    use kestrel::detect::shi_tomasi::ShiTomasi;
     use kestrel::detect::DetectError;
+    use kestrel::detect::{Grid, ShiTomasi};
     use kestrel::lk::LkError;
     use kestrel::track::Detector;
 
@@ -679,7 +678,7 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
 
 #[test]
 fn short_buffers_are_refused_when_the_tracker_is_made() {
-    use kestrel::detect::fast::Fast;
+    use kestrel::detect::Fast;
     use kestrel::track::Detector;
 
     let config = small_config();

@@ -1,9 +1,9 @@
 //! `good_features_to_track` (Shi-Tomasi) and `fast` (FAST-9): the library's detectors with
 //! OpenCV's argument names.
 
-use kestrel::detect::fast::{scratch_len as fast_scratch_len, Fast};
-use kestrel::detect::shi_tomasi::{self, ShiTomasi, MAX_BLOCK};
-use kestrel::detect::{Corner, Region};
+use kestrel::detect::{
+    fast_scratch_len, shi_tomasi_scratch_len, Corner, Fast, Region, ShiTomasi, MAX_BLOCK,
+};
 use numpy::{PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -153,7 +153,7 @@ pub fn good_features_to_track<'py>(
     let corners = py
         .detach(|| -> Result<Vec<Corner>, String> {
             let view = pixels.view()?;
-            let mut scratch = vec![0i32; shi_tomasi::scratch_len(pixels.width, capacity)];
+            let mut scratch = vec![0i32; shi_tomasi_scratch_len(pixels.width, capacity)];
             let mut out = vec![Corner::default(); capacity];
             let n = detector
                 .detect(&view, region, None, &mut scratch, &mut out)

@@ -12,10 +12,14 @@ use crate::q16::Point;
 /// The most columns or rows a [`Grid`] may have.
 pub const MAX_CELLS_PER_SIDE: usize = 32;
 
-/// A `cols` x `rows` bucketing grid allowing `per_cell` features per cell.
+/// A `cols` x `rows` bucketing grid allowing `per_cell` features per cell: it spreads corners
+/// over the whole frame. Detectors return the strongest corners, which in a real scene cluster
+/// on one textured patch (a road marking, a tree line); flow measured there alone says little
+/// about rotation and breaks when that patch leaves the view. Points already tracked in a cell
+/// count against its allowance, so new corners go where tracks are missing.
 ///
 /// ```
-/// use kestrel::detect::grid::Grid;
+/// use kestrel::detect::Grid;
 /// let grid = Grid { cols: 4, rows: 3, per_cell: 2 };
 /// assert_eq!(grid.cell_of(160, 120, 159, 0), Some((3, 0)));
 /// ```
@@ -35,7 +39,7 @@ impl Grid {
     /// Cells split the frame as evenly as integers allow.
     ///
     /// ```
-    /// use kestrel::detect::grid::Grid;
+    /// use kestrel::detect::Grid;
     /// let grid = Grid { cols: 3, rows: 2, per_cell: 1 };
     /// assert_eq!(grid.cell_of(90, 60, 29, 29), Some((0, 0)));
     /// assert_eq!(grid.cell_of(90, 60, 30, 30), Some((1, 1)));
@@ -60,7 +64,7 @@ impl Grid {
     /// Checks the number of columns and rows.
     ///
     /// ```
-    /// use kestrel::detect::grid::Grid;
+    /// use kestrel::detect::Grid;
     /// use kestrel::detect::DetectError;
     /// assert_eq!(Grid { cols: 8, rows: 6, per_cell: 3 }.validate(), Ok(()));
     /// assert_eq!(Grid { cols: 0, rows: 6, per_cell: 3 }.validate(), Err(DetectError::BadGrid));
@@ -80,7 +84,7 @@ impl Grid {
     /// the frame are dropped and ignored. The per-cell counts take 1 KB of stack.
     ///
     /// ```
-    /// use kestrel::detect::grid::Grid;
+    /// use kestrel::detect::Grid;
     /// use kestrel::detect::Corner;
     /// use kestrel::Point;
     ///

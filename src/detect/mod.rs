@@ -2,10 +2,10 @@
 //!
 //! Two detectors share one output type, [`Corner`]:
 //!
-//! - [`fast`]: FAST-9 (Rosten & Drummond), the cheap one: a handful of integer compares per pixel.
-//! - [`shi_tomasi`]: the minimum eigenvalue of the structure tensor, the corners LK tracks best.
+//! - [`Fast`]: FAST-9 (Rosten & Drummond), the cheap one: a handful of integer compares per pixel.
+//! - [`ShiTomasi`]: the minimum eigenvalue of the structure tensor, the corners LK tracks best.
 //!
-//! [`grid`] then spreads the detected corners over the frame, so that flow is measured everywhere
+//! [`Grid`] then spreads the detected corners over the frame, so that flow is measured everywhere
 //! and not only on the one textured patch of ground.
 //!
 //! Nothing allocates. Both detectors write into a caller-provided `&mut [Corner]` and return how
@@ -14,9 +14,13 @@
 //! can be restricted to a [`Region`] and kept away from existing tracks with an
 //! [`ExclusionMask`].
 
-pub mod fast;
-pub mod grid;
-pub mod shi_tomasi;
+mod fast;
+mod grid;
+mod shi_tomasi;
+
+pub use fast::{fast9_score, fast_scratch_len, Fast, FAST_BORDER};
+pub use grid::{Grid, MAX_CELLS_PER_SIDE};
+pub use shi_tomasi::{min_eigen_score, shi_tomasi_scratch_len, ShiTomasi, MAX_BLOCK};
 
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::q16::{Point, Q16};
@@ -116,11 +120,11 @@ pub enum DetectError {
     /// The scratch buffer is shorter than the detector's `scratch_len` for this frame.
     ScratchTooSmall,
     /// The Shi-Tomasi block is even, smaller than 3 or larger than
-    /// [`shi_tomasi::MAX_BLOCK`].
+    /// [`MAX_BLOCK`].
     BadBlockSize,
     /// The quality level is not a number in `0.0..=1.0`.
     BadQualityLevel,
-    /// A grid has zero columns or rows, or more than [`grid::MAX_CELLS_PER_SIDE`].
+    /// A grid has zero columns or rows, or more than [`MAX_CELLS_PER_SIDE`].
     BadGrid,
 }
 

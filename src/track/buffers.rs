@@ -5,7 +5,7 @@
 //! the two halves. Everything else it needs between frames is a few hundred bytes inside the
 //! [`super::Tracker`] itself.
 
-use crate::detect::{fast, shi_tomasi, Corner};
+use crate::detect::{fast_scratch_len, shi_tomasi_scratch_len, Corner};
 use crate::pyramid::{level_size, pyramid_storage_len};
 
 /// Bytes of [`TrackerBuffers::storage`] for `width` x `height` frames and pyramids down to
@@ -21,7 +21,7 @@ use crate::pyramid::{level_size, pyramid_storage_len};
 pub const fn tracker_storage_len(width: usize, height: usize, max_level: usize) -> usize {
     pyramid_storage_len(width, height, max_level)
         .saturating_mul(2)
-        .saturating_add(fast::scratch_len(width))
+        .saturating_add(fast_scratch_len(width))
 }
 
 /// `i32` words of [`TrackerBuffers::detect_scratch`] for Shi-Tomasi detection on pyramid level
@@ -33,7 +33,7 @@ pub const fn tracker_storage_len(width: usize, height: usize, max_level: usize) 
 /// assert_eq!(detect_scratch_len(320, 1, 200), 6 * 160);
 /// ```
 pub const fn detect_scratch_len(width: usize, detect_level: usize, candidates: usize) -> usize {
-    shi_tomasi::scratch_len(level_size(width, detect_level), candidates)
+    shi_tomasi_scratch_len(level_size(width, detect_level), candidates)
 }
 
 /// The memory a [`super::Tracker`] works in, borrowed for its whole life.

@@ -1,9 +1,7 @@
 //! Tracker settings, their defaults and their validation.
 
 use super::TrackerError;
-use crate::detect::fast::Fast;
-use crate::detect::grid::Grid;
-use crate::detect::shi_tomasi::ShiTomasi;
+use crate::detect::{Fast, Grid, ShiTomasi};
 use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement};
 use crate::pyramid::{PyramidFilter, MAX_LEVEL};
 use crate::q16::Q16;
@@ -11,7 +9,7 @@ use crate::q16::Q16;
 /// The corner detector that starts new tracks.
 ///
 /// ```
-/// use kestrel::detect::{fast::Fast, Corner};
+/// use kestrel::detect::{Corner, Fast};
 /// use kestrel::lk::scratch_len;
 /// use kestrel::track::{tracker_storage_len, Detector, Tracker, TrackerBuffers, TrackerConfig, TrackerError};
 /// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };

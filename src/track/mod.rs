@@ -19,7 +19,7 @@
 //!    when that is farther than [`TrackerConfig::max_relocation`];
 //! 4. when fewer than [`TrackerConfig::refill_below`] tracks are left, detects corners on
 //!    pyramid level [`TrackerConfig::detect_level`] away from the live tracks, spreads them
-//!    with a [`Grid`](crate::detect::grid::Grid), and starts new tracks up to
+//!    with a [`Grid`](crate::detect::Grid), and starts new tracks up to
 //!    [`TrackerConfig::max_tracks`] where LK accepts the window.
 //!
 //! Memory: the caller's [`TrackerBuffers`] (two pyramids, scratch, candidates), and inside the

@@ -10,10 +10,10 @@
 
 use super::picture::{Frame, Picture};
 use arbitrary::Arbitrary;
-use kestrel::detect::fast::{self, fast9_score, Fast};
-use kestrel::detect::grid::{Grid, MAX_CELLS_PER_SIDE};
-use kestrel::detect::shi_tomasi::{self, min_eigen_score, ShiTomasi, MAX_BLOCK};
-use kestrel::detect::{Corner, DetectError, ExclusionMask, Region};
+use kestrel::detect::{
+    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, DetectError,
+    ExclusionMask, Fast, Grid, Region, ShiTomasi, FAST_BORDER, MAX_BLOCK, MAX_CELLS_PER_SIDE,
+};
 use kestrel::frame::ImageView;
 use kestrel::Point;
 
@@ -88,7 +88,7 @@ fn check_fast(
         nonmax: input.fast_nonmax,
     };
     let needed = if detector.nonmax {
-        fast::scratch_len(image.width())
+        fast_scratch_len(image.width())
     } else {
         0
     };
@@ -101,7 +101,7 @@ fn check_fast(
     }
     let n = result.expect("FAST refused valid buffers");
     assert!(n <= capacity);
-    let area = region.clip(image.width(), image.height(), fast::BORDER);
+    let area = region.clip(image.width(), image.height(), FAST_BORDER);
     let found = &out[..n];
     check_corners(found, area, mask);
     for c in found {
@@ -161,7 +161,7 @@ fn check_shi_tomasi(
         quality_level: input.quality,
         min_distance: input.min_distance % 40,
     };
-    let needed = shi_tomasi::scratch_len(image.width(), capacity);
+    let needed = shi_tomasi_scratch_len(image.width(), capacity);
     let mut scratch = vec![0i32; needed.saturating_add_signed(input.scratch_delta.into())];
     let mut out = vec![Corner::default(); capacity];
     let result = detector.detect(image, region, mask, &mut scratch, &mut out);

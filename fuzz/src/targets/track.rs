@@ -10,10 +10,8 @@
 
 use super::picture::{Change, Frame, FrameInput, Picture};
 use arbitrary::Arbitrary;
-use kestrel::detect::fast::Fast;
-use kestrel::detect::grid::Grid;
-use kestrel::detect::shi_tomasi::ShiTomasi;
 use kestrel::detect::Corner;
+use kestrel::detect::{Fast, Grid, ShiTomasi};
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::PyramidFilter;
 use kestrel::track::{

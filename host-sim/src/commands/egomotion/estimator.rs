@@ -5,9 +5,9 @@
 //! on the tracked points. The new frame's pyramid is kept for the next pair, so each frame's
 //! pyramid is built once.
 
-use kestrel::detect::grid::Grid;
-use kestrel::detect::shi_tomasi::{self, ShiTomasi};
-use kestrel::detect::{Corner, Region};
+use kestrel::detect::{
+    shi_tomasi_scratch_len, Corner, Grid, Region, ShiTomasi, MAX_CELLS_PER_SIDE,
+};
 use kestrel::ego::{Camera, CameraParams, EgoMotion, ModelKind, Ransac, RansacParams, Rotation};
 use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
@@ -128,7 +128,7 @@ impl MotionEstimator {
             prev: None,
             prev_levels: vec![0; levels_len],
             next_levels: vec![0; levels_len],
-            detect_scratch: vec![0; shi_tomasi::scratch_len(width, candidates)],
+            detect_scratch: vec![0; shi_tomasi_scratch_len(width, candidates)],
             lk_scratch: vec![0; scratch_len(lk_params.window)],
             corners: vec![Corner::default(); candidates],
             points: Vec::with_capacity(settings.max_points),
@@ -284,7 +284,7 @@ fn min_distance(max_points: usize, width: usize, height: usize) -> u16 {
 fn grid(max_points: usize, width: usize, height: usize) -> Grid {
     let cols = GRID_COLUMNS;
     let rows = (cols * height + width / 2) / width.max(1);
-    let rows = rows.clamp(1, kestrel::detect::grid::MAX_CELLS_PER_SIDE);
+    let rows = rows.clamp(1, MAX_CELLS_PER_SIDE);
     let per_cell = max_points
         .div_ceil(cols * rows)
         .clamp(1, usize::from(u8::MAX));

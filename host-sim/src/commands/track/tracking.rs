@@ -3,8 +3,8 @@
 use std::fmt;
 use std::time::Instant;
 
-use kestrel::detect::grid::{Grid, MAX_CELLS_PER_SIDE};
 use kestrel::detect::Corner;
+use kestrel::detect::{Grid, MAX_CELLS_PER_SIDE};
 use kestrel::lk::{scratch_len, Illumination, LkParams, TemplatePlacement};
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,

@@ -420,9 +420,8 @@ pub struct DenseParams {
     /// With the camera check on, whether a window too flat for it (its neighbouring pixels
     /// differ by less than 2 grey levels on average along its weaker direction) is still
     /// searched by LK (`true`), or marked [`NodeStatus::LowTexture`] at once (`false`). LK
-    /// measures some of those windows (10 of 14 on the scenes of tests/dense_grid.rs); on the
-    /// reference firmware's frames skipping them takes about a quarter of the grid's
-    /// instructions (bench/target.sh) and leaves its motion boxes as they were.
+    /// measures some of those windows; skipping them saves LK searches where a grid is mostly
+    /// flat (README, Dense grid and moving objects).
     pub search_flat: bool,
 }
 

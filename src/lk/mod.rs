@@ -148,9 +148,9 @@ pub enum TemplatePlacement {
     /// half a pixel), and the template needs no interpolation: its intensities and derivatives
     /// come straight from the pyramid level's pixels, which makes each template several times
     /// cheaper to prepare. Under rotation or zoom the flow half a pixel away differs slightly
-    /// (by 0.01 px for a 2 % zoom), and the window holds other pixels, hence other noise: on
-    /// the scenes of `tests/lk_accuracy.rs` with points between pixels the median error is
-    /// 0.044 px against 0.041 px for [`TemplatePlacement::AtPoint`].
+    /// (by 0.01 px for a 2 % zoom), and the window holds other pixels, hence other noise: a
+    /// little less accurate than [`TemplatePlacement::AtPoint`] (README, How the tracker
+    /// works).
     NearestPixel,
 }
 

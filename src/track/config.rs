@@ -113,9 +113,8 @@ pub struct TrackerConfig {
     /// The pyramid level detection runs on (0 = full resolution). Each level up divides the
     /// cost of detection by four; corners found there start tracks at twice, four times...
     /// their coordinates. At most [`MAX_LEVEL`]. Level 1 (the default) tracks as well as
-    /// level 0: on two synthetic 160 x 120 sequences, 92-93% of the tracks were within 1 px of
-    /// the truth after 100 frames against 91-92%. Level 2 of a 160 x 120 frame is too small
-    /// to supply 100 corners.
+    /// level 0 (README, The track manager); level 2 of a 160 x 120 frame is too small to
+    /// supply 100 corners.
     pub detect_level: usize,
     /// Bucketing of new corners over the frame; live tracks count against their cell.
     pub grid: Grid,
@@ -152,9 +151,8 @@ pub struct TrackerConfig {
     /// Gauss-Newton steps on the patch. LK follows a window from frame to frame, so its
     /// sub-pixel errors add up over hundreds of frames; this brings the track back onto the
     /// feature it was born on. Tracks take turns (by id), so each frame relocates about one
-    /// in this many. A relocation takes two Gauss-Newton steps on most tracks; it costs about
-    /// as much as 3.5 appearance checks, or 6 % of following the track for one frame forwards
-    /// and back (host instruction counts). 0 turns it off.
+    /// in this many. A relocation takes two Gauss-Newton steps on most tracks, a fraction of
+    /// following the track for one frame (README, The track manager). 0 turns it off.
     pub relocate_every: u32,
     /// Tracks younger than this many frames are not relocated: they have not drifted yet.
     pub relocate_from_age: u32,

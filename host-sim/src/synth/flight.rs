@@ -13,7 +13,7 @@
 //! centre, a 60 degree horizontal field of view.
 
 use super::camera::{Camera, Shot, Subject};
-use super::glider::{Glider, GliderSize};
+use super::glider::{Glider, GliderSize, Mover};
 use super::homography::Homography;
 use super::photo::Photo;
 use super::rng::SplitMix64;
@@ -37,17 +37,20 @@ pub enum FlightPath {
     Rotation,
     /// Hovering with a slow drift and a random tremor of the orientation in every frame.
     Shake,
+    /// Not moving at all: a camera on a mast or a tripod.
+    Still,
 }
 
 impl FlightPath {
     /// Every path, in the order of their names.
-    pub const ALL: [FlightPath; 6] = [
+    pub const ALL: [FlightPath; 7] = [
         FlightPath::Pan,
         FlightPath::Yaw,
         FlightPath::Climb,
         FlightPath::Perspective,
         FlightPath::Rotation,
         FlightPath::Shake,
+        FlightPath::Still,
     ];
 
     /// The path's name on the command line.
@@ -59,6 +62,7 @@ impl FlightPath {
             FlightPath::Perspective => "perspective",
             FlightPath::Rotation => "rotation",
             FlightPath::Shake => "shake",
+            FlightPath::Still => "still",
         }
     }
 
@@ -141,6 +145,7 @@ impl Flight {
                 let v = [signed(0.0, 0.003), signed(0.0, 0.003), 0.0];
                 (level, [0.0; 3], v)
             }
+            FlightPath::Still => (level, [0.0; 3], [0.0; 3]),
         };
         Self {
             path,
@@ -279,9 +284,21 @@ impl FlightSequence {
         objects: usize,
         size: GliderSize,
     ) -> Self {
+        Self::with_movers(spec, path, objects, size, Mover::default())
+    }
+
+    /// Like [`FlightSequence::with_object_size`], with objects that move as `mover` says (the
+    /// same glides; [`Mover::default`] gives the same frames).
+    pub fn with_movers(
+        spec: SceneSpec,
+        path: FlightPath,
+        objects: usize,
+        size: GliderSize,
+        mover: Mover,
+    ) -> Self {
         let (w, h) = (spec.width, spec.height);
         let objects = (0..objects)
-            .map(|i| Glider::sized(w, h, size, spec.seed ^ ((i as u64 + 1) << 40)))
+            .map(|i| Glider::mover(w, h, size, mover, spec.seed ^ ((i as u64 + 1) << 40)))
             .collect();
         Self {
             scene: Scene::new(spec),
@@ -357,14 +374,22 @@ const INVERTIBLE: &str = "a camera in front of the ground sees it through an inv
 
 impl Subject for FlightSequence {
     /// The objects where they are at `t`, and elsewhere the ground seen through the flight's
-    /// warp at `t`.
+    /// warp at `t`, darkened by the objects' shadows.
     fn view(&self, t: f64) -> impl Fn(f64, f64) -> f64 + '_ {
         let back = self.flight.homography_at(t).inverse().expect(INVERTIBLE);
+        let shadows = self.objects.iter().any(|o| o.kind().shadow);
         move |x, y| {
             let object = self.objects.iter().rev().find_map(|o| o.value_at(t, x, y));
             object.unwrap_or_else(|| {
                 let (u, v) = back.apply(x, y);
-                self.scene.value(t, u, v)
+                let ground = self.scene.value(t, u, v);
+                match shadows {
+                    true => self
+                        .objects
+                        .iter()
+                        .fold(ground, |g, o| g * o.light_at(t, x, y)),
+                    false => ground,
+                }
             })
         }
     }
@@ -375,10 +400,7 @@ impl Subject for FlightSequence {
         let (from, to) = (self.flight.homography_at(t0), self.flight.homography_at(t1));
         self.objects
             .iter()
-            .map(|object| {
-                let (a, b) = (object.position_at(t0), object.position_at(t1));
-                (a.0 - b.0).hypot(a.1 - b.1)
-            })
+            .map(|object| object.travel(t0, t1))
             .fold(from.distance(&to, w, h), f64::max)
     }
 }
@@ -387,9 +409,21 @@ impl Subject for FlightSequence {
 mod tests {
     use super::*;
 
+    /// Every path but `still`.
+    const MOVING: [FlightPath; 6] = [
+        FlightPath::Pan,
+        FlightPath::Yaw,
+        FlightPath::Climb,
+        FlightPath::Perspective,
+        FlightPath::Rotation,
+        FlightPath::Shake,
+    ];
+
     #[test]
     fn frame_zero_is_unwarped_and_pairs_chain_up() {
-        for path in FlightPath::ALL {
+        let still = Flight::new(FlightPath::Still, 160, 120, 4).pair_homography(3);
+        assert_eq!(still.distance(&Homography::IDENTITY, 160.0, 120.0), 0.0);
+        for path in MOVING {
             let flight = Flight::new(path, 160, 120, 4);
             assert!(
                 flight
@@ -442,7 +476,7 @@ mod tests {
 
     #[test]
     fn between_frames_the_flight_moves_continuously() {
-        for path in FlightPath::ALL {
+        for path in MOVING {
             let flight = Flight::new(path, 160, 120, 6);
             let (a, b) = (flight.homography(3), flight.homography(4));
             let middle = flight.homography_at(3.5);

@@ -33,7 +33,7 @@ mod texture;
 
 pub use camera::{AutoExposure, Camera, Light, Shot, Shutter, Subject, Vignetting};
 pub use flight::{Flight, FlightPath, FlightSequence, OBJECT_SHARE};
-pub use glider::{Glider, GliderSize};
+pub use glider::{Body, Glider, GliderSize, Mover};
 pub use homography::Homography;
 pub use object::{MovingObject, Surface};
 pub use photo::Photo;

@@ -12,6 +12,7 @@
 //! them the frames are those of the ideal camera, unchanged.
 
 mod camera_flags;
+mod mover_flags;
 
 use std::path::PathBuf;
 
@@ -29,6 +30,7 @@ use crate::synth::{
     AutoExposure, Camera, FlightPath, FlightSequence, GliderSize, SceneSpec, OBJECT_SHARE,
 };
 use camera_flags::CameraOptions;
+use mover_flags::MoverOptions;
 
 /// `host-sim synth-sequence`: its flags, their rules and its usage text.
 #[derive(Debug, Clone, PartialEq, clap::Args)]
@@ -45,7 +47,8 @@ The camera looks down at a plane with a 60 degree horizontal field of view. Path
   climb        moving towards or away from the ground while drifting (the image zooms)
   perspective  a tilted ground, turning and moving along every axis (a full homography)
   rotation     turning about every axis without moving (a gyro predicts it all)
-  shake        hovering with a slow drift and a random tremor in every frame",
+  shake        hovering with a slow drift and a random tremor in every frame
+  still        not moving at all (a camera on a mast or a tripod)",
     after_help = "Files in DIR:
   frames/frame_NNNNN.png   the frames (8-bit grey), for 'host-sim egomotion DIR/frames'
   truth.csv                frame,h11,...,h33: the exact homography from frame-1 to frame
@@ -58,13 +61,20 @@ The camera looks down at a plane with a 60 degree horizontal field of view. Path
                            id 0 to K-1; x,y the box's left and top pixel edges and w,h its
                            size, px (pixel column c spans c to c+1, so a box of boxes.csv
                            compares as it is); dx,dy the object's own motion since the frame
-                           before, px: its shift less the ground's under its centre
+                           before, px: its shift less the ground's under its centre;
+                           the box encloses every part (a walker's swinging limbs,
+                           a blob's stretch), not its shadow
 
 Moving objects glide on their own paths in the image, whatever the camera does. Example: 10
 to 12 px targets at 160x120 (--object-size 20-24 at 320x240) for 'host-sim motion':
   host-sim synth-sequence --out f --path pan --width 160 --height 120 --objects 3 \\
       --object-size 10-12 --noise 1.5
   host-sim motion f/frames --out boxes.csv     (then match boxes.csv to f/objects.csv)
+Movers as real footage has them: small distant walkers (8 to 20 px tall) that stop and start
+and cast shadows, seen from a mast through a real camera:
+  host-sim synth-sequence --out f --path still --objects 4 --object-kind walker \\
+      --object-size 8-20 --object-speed 0.15 --stop-go --shadows --exposure 15 \\
+      --jpeg 70 --noise 2
 
 The camera: time is counted in frame intervals (1 / --fps). Frame k's reference instant, at
 which truth.csv, gyro.csv and objects.csv hold exactly, is the middle of its first row's
@@ -103,7 +113,7 @@ pub struct SynthSequenceOptions {
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = seed)]
     pub seed: u64,
     /// independently moving textured rectangles, each covering 12% of the frame unless
-    /// --object-size is given, 0 to 4 (2 make 20-30% of the tracks outliers)
+    /// --object-size is given, 0 to 8 (2 make 20-30% of the tracks outliers)
     #[arg(long, value_name = "K", default_value_t = 0, value_parser = objects)]
     pub objects: usize,
     /// each object's width and height instead: PX, or MIN-MAX px to draw each side between
@@ -119,6 +129,8 @@ pub struct SynthSequenceOptions {
     pub fps: f64,
     #[command(flatten)]
     pub camera: CameraOptions,
+    #[command(flatten)]
+    pub movers: MoverOptions,
 }
 
 impl SynthSequenceOptions {
@@ -139,8 +151,8 @@ fn frames(text: &str) -> Result<usize, String> {
 }
 
 fn objects(text: &str) -> Result<usize, String> {
-    let range = |n| (0..=4).contains(&n);
-    values::whole(text, range, "must be between 0 and 4").map(|n| n as usize)
+    let range = |n| (0..=8).contains(&n);
+    values::whole(text, range, "must be between 0 and 8").map(|n| n as usize)
 }
 
 /// `PX` or `MIN-MAX`: the range each side of an object is drawn from.
@@ -221,7 +233,8 @@ fn flight_sequence(
         Some((low, high)) => GliderSize::Sides(low, high),
         None => GliderSize::Share(OBJECT_SHARE),
     };
-    let sequence = FlightSequence::with_object_size(spec, options.path, options.objects, size)
+    let mover = options.movers.mover(options.objects)?;
+    let sequence = FlightSequence::with_movers(spec, options.path, options.objects, size, mover)
         .with_camera(camera);
     Ok(match options.camera.photo()? {
         Some(photo) => sequence.with_photo(&photo, options.frames),

@@ -15,13 +15,13 @@
 //!    over the tracker and ego-motion.
 //!
 //! [`dsp`] holds the Cortex-M4 DSP instructions (USADA8, UHADD8, SMLAD) with their portable
-//! equivalents.
+//! equivalents, and the LK window loops' innermost kernels, in SSE2 on x86-64.
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
 //! can place it in a `static`.
 #![no_std]
 // Unsafe code is denied everywhere but in `dsp`, whose `asm!` blocks are register-only
-// instructions (see below).
+// instructions and whose SSE2 code loads and stores only the arrays it borrows (see below).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 // Panics stay out of the library: no unwrap, expect, panic, todo, unimplemented or
@@ -50,7 +50,9 @@ pub mod detect;
 // write registers only. Each is `options(pure, nomem, nostack)`: it touches no memory and no
 // stack, so it cannot create a dangling, aliased or out-of-bounds access, and its result
 // depends on its inputs alone. The portable versions next to them are the reference, checked
-// against the instructions bit for bit on the target (firmware/src/dsp_check.rs).
+// against the instructions bit for bit on the target (firmware/src/dsp_check.rs). Its SSE2
+// kernels (`dsp::sse2`, x86-64 only) load and store 16 bytes at a time from `[i16; 8]` arrays
+// they borrow, and are checked against their portable versions bit for bit by the tests.
 #[allow(unsafe_code)]
 pub mod dsp;
 pub mod ego;

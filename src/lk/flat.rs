@@ -1,4 +1,7 @@
-//! Window loops shaped for SIMD units (x86-64, AArch64).
+//! The tests' reference window loops: padded, flat loops shaped for LLVM's auto-vectoriser,
+//! which x86-64 and AArch64 ran before the row loops ([`super::rows`], every target's now) had
+//! SSE2 kernels. Written independently of the row loops, they hold them to the same values bit
+//! for bit in the tests of `lk`, `window` and here.
 //!
 //! Every window buffer is row-major with a pitch of `window + 3`: the columns past the window
 //! are padding, kept at zero where they would enter a sum. Sampling, derivatives and window sums
@@ -18,9 +21,10 @@
 use super::correlation::Correlations;
 use super::template::TemplateSums;
 use super::window::{
-    bilinear, gather, in_layout, mask_outside, rescale, scharr_smooth, Layout, Loops,
-    TemplateBuffers, TemplateOut, WindowOrigin,
+    gather, in_layout, mask_outside, scharr_smooth, Layout, Loops, TemplateBuffers, TemplateOut,
+    WindowOrigin,
 };
+use crate::dsp::runs::{bilinear, rescale};
 use crate::frame::ImageView;
 
 /// Template products summed in 32 bits before widening: the most that provably cannot overflow.

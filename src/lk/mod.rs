@@ -37,17 +37,12 @@
 //! assert!((x - 28.5).abs() < 0.05 && (y - 30.0).abs() < 0.05);
 //! ```
 
-// Both sets of window loops build on every target so that the tests compare them bit for bit.
 mod correlation;
-#[cfg_attr(
-    not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")),
-    allow(dead_code)
-)]
+// The padded loops LLVM vectorised for SIMD hosts before the row loops' innermost operations
+// had SSE2 kernels (`crate::dsp`): kept in the tests as an independent reference that the
+// row loops must match bit for bit.
+#[cfg(test)]
 mod flat;
-#[cfg_attr(
-    any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"),
-    allow(dead_code)
-)]
 mod rows;
 mod template;
 mod wide;
@@ -60,11 +55,8 @@ use correlation::Correlations;
 use template::{Step, Template, TemplateError};
 use window::{Loops, TemplateBuffers, TemplateOut, WindowOrigin};
 
-/// The window loops this target runs: the flat, padded ones where LLVM vectorises them, the
-/// row-by-row ones on scalar cores. Both give the same results bit for bit.
-#[cfg(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64"))]
-type NativeLoops = flat::Flat;
-#[cfg(not(any(target_arch = "x86", target_arch = "x86_64", target_arch = "aarch64")))]
+/// The window loops of every target: one set, whose innermost operations (`crate::dsp::runs`)
+/// are SSE2 on x86-64, SMLAD on the Cortex-M4 and portable Rust elsewhere.
 type NativeLoops = rows::Rows;
 
 /// The largest window side accepted.
@@ -73,10 +65,9 @@ pub const MAX_WINDOW: usize = 63;
 /// `i16` scratch values one point needs for a `window` x `window` window.
 ///
 /// The scratch holds the source pixels under a window, the template patch with its derivative
-/// border, the template, its two gradients and the resampled next-frame window, each row padded
-/// to `window + 3` values where the window loops are vectorised (fewer values suffice on scalar
-/// cores; this is the larger figure on every target); size it for the largest window the
-/// application uses:
+/// border, the template, its two gradients and the resampled next-frame window (the figure
+/// allows rows padded to `window + 3` values, more than the window loops use); size it for the
+/// largest window the application uses:
 ///
 /// ```
 /// use kestrel::lk::scratch_len;
@@ -84,7 +75,8 @@ pub const MAX_WINDOW: usize = 63;
 /// assert_eq!(scratch_len(21), 3_147);
 /// ```
 pub const fn scratch_len(window: usize) -> usize {
-    // The flat loops' padded rows need more than the packed ones for every window.
+    // Rows padded to `window + 3`, as the tests' reference loops pad them: more than the window
+    // loops need for every window, and the figure applications already size their scratch by.
     let pitch = window + 3;
     let source = (window + 3) * pitch + 1;
     let patch = (window + 2) * pitch + 2;

@@ -1,21 +1,23 @@
-//! Window loops for scalar cores (the Cortex-M4 of flight controllers).
+//! The window loops, one set for every target.
 //!
-//! A core without SIMD pays for every padding value of [`super::flat`]'s rows and for its
-//! clears. Here window buffers have a single padding column (`pitch == window + 1`, zero in the
-//! template), just enough for the next frame's source block, gathered once as `i16` with the
-//! same pitch, to line up with them: each bilinear neighbour's correlation with a template array
-//! is then one flat dot product, which LLVM turns into `SMLAD` (two multiply-accumulates per
-//! instruction). The template patch has a one-pixel border and no padding and is interpolated
-//! from a gathered copy of its pixels as `i16` too: one set of loops for windows inside the
-//! frame and over its edge, and on the Cortex-M4 no slower than reading the frame's bytes in
-//! place (the copy's loads need no widening).
+//! Window buffers have a single padding column (`pitch == window + 1`, zero in the template),
+//! just enough for the next frame's source block, gathered once as `i16` with the same pitch,
+//! to line up with them: each bilinear neighbour's correlation with a template array is then
+//! one flat dot product. The template patch has a one-pixel border and no padding and is
+//! interpolated from a gathered copy of its pixels as `i16` too: one set of loops for windows
+//! inside the frame and over its edge, and on the Cortex-M4 no slower than reading the frame's
+//! bytes in place (the copy's loads need no widening).
 //!
-//! The loops run row by row, each in a small function of its own: a Cortex-M4 has thirteen
-//! free registers, and a loop inlined into a larger function or unrolled four-fold (as LLVM does
-//! to short loops) spills the bilinear weights and accumulators. The loops over pixel pairs end
-//! on two conditions, which keeps LLVM from unrolling them. Every value equals the flat loops'
-//! bit for bit: the same bilinear sums and rounding ([`bilinear`]), the same Scharr sums
-//! ([`rescale`]) and exact window sums and correlations.
+//! The innermost operations (dot products of `i16` runs, the template's sums, rows of bilinear
+//! samples) are the kernels of [`crate::dsp::runs`], the only code that differs by target:
+//! SMLAD, two multiply-accumulates an instruction, on the Cortex-M4; SSE2's PMADDWD, eight, on
+//! x86-64; portable Rust elsewhere; the same values bit for bit on every target. The rest runs
+//! row by row, each loop in a small function of its own: a Cortex-M4 has thirteen free
+//! registers, and a loop inlined into a larger function or unrolled four-fold (as LLVM does to
+//! short loops) spills the bilinear weights and accumulators. The tests hold every value to
+//! the padded reference loops of `flat.rs` bit for bit: the same bilinear sums and rounding
+//! ([`crate::dsp::runs::bilinear`]), the same Scharr sums ([`crate::dsp::runs::rescale`]) and exact window sums
+//! and correlations.
 //!
 //! # Integer widths
 //!
@@ -28,9 +30,10 @@
 use super::correlation::Correlations;
 use super::template::{Correction, TemplateSums};
 use super::window::{
-    bilinear, gather, in_layout, in_layout_mut, mask_outside, rescale, scharr_smooth, Layout,
-    Loops, TemplateBuffers, TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
+    gather, in_layout, in_layout_mut, mask_outside, scharr_smooth, Layout, Loops, TemplateBuffers,
+    TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
+use crate::dsp::runs::{self, pair};
 use crate::dsp::smlad;
 use crate::frame::ImageView;
 
@@ -118,7 +121,7 @@ impl Loops for Rows {
         let w = origin.w.map(i32::from);
         let rows = row_pairs(block, layout.pitch).zip(j.chunks_exact_mut(layout.pitch));
         for ((top, bottom), out) in rows {
-            interpolate(
+            runs::bilinear_row(
                 &w,
                 top,
                 bottom,
@@ -235,81 +238,9 @@ fn sample_patch(
         .map(|row| in_layout_mut(row, 0..win));
     for (r, ((top, bottom), out)) in rows.enumerate() {
         match if r == 0 { None } else { inner.next() } {
-            Some(inner) => interpolate_twice(w, top, bottom, out, inner),
-            None => interpolate(w, top, bottom, out),
+            Some(inner) => runs::bilinear_row_twice(w, top, bottom, out, inner),
+            None => runs::bilinear_row(w, top, bottom, out),
         }
-    }
-}
-
-/// One row of bilinear samples from `out.len() + 1` pixels of two source rows.
-///
-/// Each pixel's right neighbour is the next sample's left one and stays in a register. The loop
-/// stops at the end of `out` or of the shorter source row: with two exits LLVM keeps it rolled.
-/// Not inlined, so that the weights stay in registers.
-#[inline(never)]
-fn interpolate(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut [i16]) {
-    let w = *w;
-    // Rows come from `chunks`, which yields no empty row: the split succeeds.
-    let (Some((&a, top)), Some((&c, bottom))) = (top.split_first(), bottom.split_first()) else {
-        debug_assert!(
-            out.is_empty(),
-            "an empty source row for {} samples",
-            out.len()
-        );
-        return;
-    };
-    let (mut a, mut c) = (a.into(), c.into());
-    for (k, o) in out.iter_mut().enumerate() {
-        let (Some(&b), Some(&d)) = (top.get(k), bottom.get(k)) else {
-            break;
-        };
-        let (b, d) = (b.into(), d.into());
-        *o = bilinear(w, a, b, c, d);
-        (a, c) = (b, d);
-    }
-}
-
-/// [`interpolate`] for a patch row, storing the samples but the first and the last in `inner`
-/// as well.
-#[inline(never)]
-fn interpolate_twice(
-    w: &[i32; 4],
-    top: &[i16],
-    bottom: &[i16],
-    out: &mut [i16],
-    inner: &mut [i16],
-) {
-    let w = *w;
-    let n = inner.len();
-    let (Some((first, rest)), Some(&[a, b]), Some(&[c, d])) =
-        (out.split_first_mut(), top.get(..2), bottom.get(..2))
-    else {
-        // Patch rows of `win + 2` samples from source rows of `win + 3`: never this short.
-        debug_assert!(
-            top.len() >= 2 && bottom.len() >= 2,
-            "short rows for a patch row"
-        );
-        return;
-    };
-    *first = bilinear(w, a.into(), b.into(), c.into(), d.into());
-    let (mut a, mut c) = (b.into(), d.into());
-    let (middle, last) = rest.split_at_mut(n.min(rest.len()));
-    // Both are at least two long, checked above.
-    let (top, bottom) = (
-        in_layout(top, 2..top.len()),
-        in_layout(bottom, 2..bottom.len()),
-    );
-    for (k, (o, i)) in middle.iter_mut().zip(inner.iter_mut()).enumerate() {
-        let (Some(&b), Some(&d)) = (top.get(k), bottom.get(k)) else {
-            break;
-        };
-        let (b, d) = (b.into(), d.into());
-        let v = bilinear(w, a, b, c, d);
-        (*o, *i) = (v, v);
-        (a, c) = (b, d);
-    }
-    if let (Some(o), Some(&b), Some(&d)) = (last.first_mut(), top.get(n), bottom.get(n)) {
-        *o = bilinear(w, a, b.into(), c, d.into());
     }
 }
 
@@ -341,10 +272,7 @@ fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
     // The block is the (win + 1)-square, p = win + 1 apart, and a value of slack.
     let square = in_layout(block, 0..p * p);
     // The block's total by pairs; its first and last columns by one load a row.
-    let sum_of = |values: &[i16]| -> i32 {
-        let (twos, tail) = pairs(values);
-        twos.fold(smlad(tail, ONES, 0), |sum, two| smlad(pair(two), ONES, sum))
-    };
+    let sum_of = runs::sum;
     let total = sum_of(square);
     let (mut left, mut right) = (0, 0);
     for row in square.chunks_exact(p) {
@@ -368,26 +296,6 @@ fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
 /// (widths in `correlation.rs`).
 const CORRELATION_CHUNK: usize = 1024;
 
-/// Two neighbouring values as one word, the first in the low half: the operand of SMLAD, and
-/// one 32-bit load on the Cortex-M4, which reads words at any even address. A single value
-/// (the end of an odd run) pairs with a zero.
-#[inline(always)]
-fn pair(v: &[i16]) -> u32 {
-    match *v {
-        [lo, hi] => u32::from(lo as u16) | (u32::from(hi as u16) << 16),
-        [lo] => u32::from(lo as u16),
-        _ => 0,
-    }
-}
-
-/// The pairs of `v` and its odd last value, if any, as a pair with a zero.
-#[inline(always)]
-fn pairs(v: &[i16]) -> (core::slice::ChunksExact<'_, i16>, u32) {
-    let pairs = v.chunks_exact(2);
-    let tail = pair(pairs.remainder());
-    (pairs, tail)
-}
-
 /// `[Σ a[k] b0[k], Σ a[k] b1[k], Σ a[k] b2[k]]`: each pixel pair of `a` loaded once for three
 /// dual multiply-accumulates, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
 fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
@@ -396,26 +304,11 @@ fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
         let start = k * CORRELATION_CHUNK;
         // `a` is a window run and each `b` a window buffer: the same length.
         let part = b.map(|v| in_layout(v, start..start + a.len()));
-        for (t, s) in total.iter_mut().zip(dot3_chunk(a, part)) {
+        for (t, s) in total.iter_mut().zip(runs::dot3(a, part)) {
             *t += i64::from(s);
         }
     }
     total
-}
-
-/// [`dot3`] of at most [`CORRELATION_CHUNK`] values. An odd last value pairs with a zero.
-/// Not inlined, so that its three sums and four pointers keep to registers.
-#[inline(never)]
-fn dot3_chunk(a: &[i16], [b0, b1, b2]: [&[i16]; 3]) -> [i32; 3] {
-    let ((a, at), (b0, t0), (b1, t1), (b2, t2)) = (pairs(a), pairs(b0), pairs(b1), pairs(b2));
-    let (mut s0, mut s1, mut s2) = (smlad(at, t0, 0), smlad(at, t1, 0), smlad(at, t2, 0));
-    for ((x, y0), (y1, y2)) in a.zip(b0).zip(b1.zip(b2)) {
-        let x = pair(x);
-        s0 = smlad(x, pair(y0), s0);
-        s1 = smlad(x, pair(y1), s1);
-        s2 = smlad(x, pair(y2), s2);
-    }
-    [s0, s1, s2]
 }
 
 /// The Scharr derivatives of the template inside its patch.
@@ -428,29 +321,7 @@ fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
         let (Some(dx_row), Some(dy_row)) = (dx_row.get_mut(..win), dy_row.get_mut(..win)) else {
             continue;
         };
-        scharr_row(up, mid, down, dx_row, dy_row);
-    }
-}
-
-/// One template row's Scharr derivatives from three patch rows of `win + 2` values.
-///
-/// Separable: each column's vertical smoothing `3 u + 10 m + 3 d` and difference `d - u` are
-/// computed once and carried to the next two outputs, which then need one column of loads each.
-#[inline(never)]
-fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i16]) {
-    let mut columns = up.iter().zip(mid).zip(down).map(|((&u, &m), &d)| {
-        let [u, m, d] = [u, m, d].map(i32::from);
-        (scharr_smooth(u, m, d), d - u)
-    });
-    // Patch rows hold `win + 2` >= 3 values.
-    let (Some((mut v0, mut h0)), Some((mut v1, mut h1))) = (columns.next(), columns.next()) else {
-        debug_assert!(dx.is_empty(), "patch rows under two values");
-        return;
-    };
-    for ((gx, gy), (v2, h2)) in dx.iter_mut().zip(dy.iter_mut()).zip(columns) {
-        *gx = rescale(v2 - v0);
-        *gy = rescale(scharr_smooth(h0, h1, h2));
-        (v0, h0, v1, h1) = (v1, h1, v2, h2);
+        runs::scharr_row(up, mid, down, dx_row, dy_row);
     }
 }
 
@@ -562,8 +433,8 @@ fn pixel_row(
 /// The template's window sums, in two passes of dual multiply-accumulates over the rows (each
 /// row even in length with its zero padding column, so its values pair up): the gradients'
 /// sums and products, then the intensities' with themselves and the gradients. A plain sum
-/// is a multiply-accumulate with ones. The same sums as [`TemplateSums::in_chunks`], which the
-/// flat loops use, with the same 32-bit widths per row of at most 64 values.
+/// is a multiply-accumulate with ones. The same 32-bit widths per stretch of at most 64 values
+/// as the reference loops' sums in the tests.
 #[inline(never)]
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
     let mut s = TemplateSums::default();
@@ -571,8 +442,8 @@ fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
         .chunks(MAX_ROW + 1)
         .zip(dx.chunks(MAX_ROW + 1).zip(dy.chunks(MAX_ROW + 1)));
     for (i, (gx, gy)) in rows {
-        let [gxx, gxy, gyy, sx, sy] = gradient_sums(gx, gy);
-        let [si, sii, six, siy] = intensity_sums(i, gx, gy);
+        let [gxx, gxy, gyy, sx, sy] = runs::gradient_sums(gx, gy);
+        let [si, sii, six, siy] = runs::intensity_sums(i, gx, gy);
         s.gxx += i64::from(gxx);
         s.gxy += i64::from(gxy);
         s.gyy += i64::from(gyy);
@@ -583,48 +454,6 @@ fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
         s.sii += i64::from(sii as u32);
         s.six += i64::from(six);
         s.siy += i64::from(siy);
-    }
-    s
-}
-
-/// The halves `(1, 1)`: SMLAD with it sums a pair.
-const ONES: u32 = 0x0001_0001;
-
-/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy]` of one stretch of at most 64 values.
-#[inline(never)]
-fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
-    let ((gx, xt), (gy, yt)) = (pairs(gx), pairs(gy));
-    let sums = |x: u32, y: u32, s: [i32; 5]| {
-        [
-            smlad(x, x, s[0]),
-            smlad(x, y, s[1]),
-            smlad(y, y, s[2]),
-            smlad(x, ONES, s[3]),
-            smlad(y, ONES, s[4]),
-        ]
-    };
-    let mut s = sums(xt, yt, [0; 5]);
-    for (x, y) in gx.zip(gy) {
-        s = sums(pair(x), pair(y), s);
-    }
-    s
-}
-
-/// `[Σ I, Σ I² (wrapping), Σ I gx, Σ I gy]` of one stretch of at most 64 values.
-#[inline(never)]
-fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
-    let ((i, it), (gx, xt), (gy, yt)) = (pairs(i), pairs(gx), pairs(gy));
-    let sums = |v: u32, x: u32, y: u32, s: [i32; 4]| {
-        [
-            smlad(v, ONES, s[0]),
-            smlad(v, v, s[1]),
-            smlad(v, x, s[2]),
-            smlad(v, y, s[3]),
-        ]
-    };
-    let mut s = sums(it, xt, yt, [0; 4]);
-    for (v, (x, y)) in i.zip(gx.zip(gy)) {
-        s = sums(pair(v), pair(x), pair(y), s);
     }
     s
 }

@@ -67,7 +67,8 @@ impl TemplateSums {
     /// The sums over a template's intensity and derivative buffers (padding holds zeros),
     /// accumulated in 32 bits over `CHUNK` values at a time and widened to 64 bits between
     /// chunks: exact for chunks of up to 64 values at the extremes (tests in `flat` and
-    /// `rows`), and a 32-bit inner loop for either set of window loops.
+    /// `rows`). The sums of the tests' reference loops (`flat`).
+    #[cfg(test)]
     pub(crate) fn in_chunks<const CHUNK: usize>(intensity: &[i16], dx: &[i16], dy: &[i16]) -> Self {
         let mut s = Self::default();
         let chunks = intensity

@@ -11,10 +11,9 @@
 //! interpolating a full derivative image (up to rounding), without the two i16 planes per level
 //! that a full derivative image would cost in RAM.
 //!
-//! Two implementations of the loops compute the same values bit for bit ([`Loops`]):
-//! [`super::flat`] is shaped for SIMD units (rows padded to vector widths, flat loops),
-//! [`super::rows`] for scalar cores such as the Cortex-M4 (one padding column, short row loops,
-//! dot products the DSP extension runs two products at a time).
+//! The window loops ([`Loops`]) are [`super::rows`] on every target; the tests hold them to an
+//! independent implementation, [`super::flat`] (rows padded to vector widths, flat loops), bit
+//! for bit.
 
 use super::correlation::Correlations;
 use super::template::{abs_residual_of, Correction, TemplateSums};
@@ -45,9 +44,9 @@ pub(crate) fn in_layout_mut<T>(buf: &mut [T], range: Range<usize>) -> &mut [T] {
 }
 
 /// Fractional bits of the bilinear weights.
-pub(crate) const WEIGHT_BITS: u32 = 14;
+pub(crate) const WEIGHT_BITS: u32 = crate::dsp::runs::WEIGHT_BITS;
 /// Fractional bits kept in sampled intensities (grey x 32).
-pub(crate) const INTENSITY_BITS: u32 = 5;
+pub(crate) const INTENSITY_BITS: u32 = crate::dsp::runs::SAMPLE_BITS;
 
 /// The shape of every buffer for one window size.
 ///
@@ -205,29 +204,9 @@ impl WindowOrigin {
     }
 }
 
-/// One bilinear sample, grey x 32, from the pixel, its right neighbour, the one below and the
-/// one below-right. Both sets of loops round exactly this way.
-#[inline(always)]
-pub(crate) fn bilinear([w00, w01, w10, w11]: [i32; 4], a: i32, b: i32, c: i32, d: i32) -> i16 {
-    let round = 1 << (WEIGHT_BITS - INTENSITY_BITS - 1);
-    let sum = w00 * a + w01 * b + w10 * c + w11 * d;
-    ((sum + round) >> (WEIGHT_BITS - INTENSITY_BITS)) as i16
-}
-
-/// Scharr's smoothing across a derivative, `3 a + 10 b + 3 c`: the kernel of every Scharr sum
-/// in both sets of window loops. A derivative is the smoothing of three differences across
-/// it, or (separably) the difference of two smoothings.
-#[inline(always)]
-pub(crate) fn scharr_smooth(a: i32, b: i32, c: i32) -> i32 {
-    3 * (a + c) + 10 * b
-}
-
-/// Drops the intensity bits of a Scharr sum of grey x 32 samples (`|s| <= 16 * 8160`), rounding:
-/// the result is at the Scharr gain of 32 per grey level (`<= 4080`).
-#[inline(always)]
-pub(crate) fn rescale(s: i32) -> i16 {
-    ((s + (1 << (INTENSITY_BITS - 1))) >> INTENSITY_BITS) as i16
-}
+/// Scharr's smoothing, shared by every Scharr sum of the window loops (and the kernels of
+/// `dsp`, which define it).
+pub(crate) use crate::dsp::runs::scharr_smooth;
 
 /// Copies `rows` x `cols` pixels from `origin` into `out` (row-major, `cols` apart), repeating
 /// edge pixels outside the frame.

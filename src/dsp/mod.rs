@@ -1,5 +1,10 @@
 //! Cortex-M4 DSP instructions on packed words: sums of absolute byte differences, halving byte
-//! adds and dual 16-bit multiply-adds.
+//! adds and dual 16-bit multiply-adds; and the kernels built on them that the LK window loops
+//! run innermost, in SSE2 on x86-64.
+//!
+//! This is the one module of the crate with `unsafe` code, and the one home of code that
+//! differs by target: `asm!` for the Cortex-M4 here, SSE2 intrinsics for x86-64 in `sse2`,
+//! each with its portable version as the reference that tests compare it with bit for bit.
 //!
 //! The Cortex-M4 and M7 (ARMv7E-M) do four byte or two halfword operations in one instruction,
 //! which LLVM does not emit from plain Rust: a SAD loop compiles to byte loads and subtractions,
@@ -33,6 +38,10 @@
 /// assert!(!kestrel::dsp::ASM);
 /// ```
 pub const ASM: bool = cfg!(all(target_arch = "arm", kestrel_dsp));
+
+pub(crate) mod runs;
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+mod sse2;
 
 /// USADA8: `acc` plus the sum of the absolute differences of the four bytes of `a` and `b`.
 ///

@@ -60,8 +60,10 @@ def test_lk_lets_other_threads_run():
         for _ in range(5):
             kestrel.calc_optical_flow_pyr_lk(first, second, points, None, win_size=(21, 21))
 
-    # Measured: 0.85-1.04 over three runs each (a call that holds the GIL: 0.008).
-    assert _share_of_time_the_main_thread_ran(call) > 0.5
+    # Measured: 0.85-1.04 over three runs each on an idle 2-core machine, 0.43-0.46 while two
+    # builds ran beside it (the main thread then shares its core); a call that holds the GIL:
+    # 0.008.
+    assert _share_of_time_the_main_thread_ran(call) > 0.2
 
 
 def test_dense_flow_lets_other_threads_run():
@@ -71,5 +73,5 @@ def test_dense_flow_lets_other_threads_run():
         for _ in range(5):
             kestrel.dense_flow(first, second, cell=4)
 
-    # Measured: 0.85-1.04 over three runs each (a call that holds the GIL: 0.008).
-    assert _share_of_time_the_main_thread_ran(call) > 0.5
+    # As for LK: about 1 on an idle machine, about half under load; 0.008 holding the GIL.
+    assert _share_of_time_the_main_thread_ran(call) > 0.2

@@ -24,10 +24,10 @@ use super::DenseError;
 /// ```
 /// use kestrel::dense::DominantMotion;
 /// let pan = DominantMotion::translation(2.0, -1.0);
-/// assert_eq!(pan.predict(50.0, 80.0), (2.0, -1.0));
+/// assert_eq!(pan.flow_at(50.0, 80.0), (2.0, -1.0));
 /// // A 1% zoom about the origin moves (100, 0) by 1 px to the right.
 /// let zoom = DominantMotion { dx: [0.0, 0.01, 0.0], dy: [0.0, 0.0, 0.01] };
-/// assert_eq!(zoom.predict(100.0, 0.0), (1.0, 0.0));
+/// assert_eq!(zoom.flow_at(100.0, 0.0), (1.0, 0.0));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -58,13 +58,15 @@ impl DominantMotion {
         }
     }
 
-    /// The flow this motion gives pixel (`x`, `y`).
+    /// The flow `(dx, dy)`, px, this motion gives pixel (`x`, `y`) of the previous frame: a
+    /// displacement, not a position (the pixel is at (`x + dx`, `y + dy`) in the next frame).
+    /// The same as its [`CameraMotion::flow_at`].
     ///
     /// ```
     /// use kestrel::dense::DominantMotion;
-    /// assert_eq!(DominantMotion::ZERO.predict(3.0, 4.0), (0.0, 0.0));
+    /// assert_eq!(DominantMotion::ZERO.flow_at(3.0, 4.0), (0.0, 0.0));
     /// ```
-    pub fn predict(&self, x: f32, y: f32) -> (f32, f32) {
+    pub fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
         let [a0, a1, a2] = self.dx;
         let [b0, b1, b2] = self.dy;
         (a0 + a1 * x + a2 * y, b0 + b1 * x + b2 * y)
@@ -100,7 +102,7 @@ impl DominantMotion {
     /// nodes[10] = GridNode::tracked(Point::from_f32(1.5, 5.0));
     /// let fit = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap();
     /// assert_eq!((fit.measured, fit.inliers), (64, 62));
-    /// let (dx, dy) = fit.motion.predict(20.0, 12.0);
+    /// let (dx, dy) = fit.motion.flow_at(20.0, 12.0);
     /// assert!((dx - 1.5).abs() < 1e-3 && dy.abs() < 1e-3);
     /// let short = DominantMotion::fit(&layout, &nodes[..63], &DominantFitParams::default());
     /// assert_eq!(short.unwrap_err(), kestrel::dense::DenseError::NodesTooShort);
@@ -159,8 +161,8 @@ impl DominantMotion {
 }
 
 impl CameraMotion for DominantMotion {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
-        DominantMotion::predict(self, x, y)
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
+        DominantMotion::flow_at(self, x, y)
     }
 }
 
@@ -344,14 +346,14 @@ impl Affine {
         }
     }
 
-    fn predict(&self, u: f32, v: f32) -> (f32, f32) {
+    fn flow_at(&self, u: f32, v: f32) -> (f32, f32) {
         let [c0, c1, c2] = self.c;
         let [d0, d1, d2] = self.d;
         (c0 + c1 * u + c2 * v, d0 + d1 * u + d2 * v)
     }
 
     fn residual_sq(&self, u: f32, v: f32, (dx, dy): (f32, f32)) -> f32 {
-        let (px, py) = self.predict(u, v);
+        let (px, py) = self.flow_at(u, v);
         (dx - px) * (dx - px) + (dy - py) * (dy - py)
     }
 
@@ -475,7 +477,7 @@ mod tests {
             (80.0, 60.0),
             (159.0, 119.0),
         ] {
-            let (px, py) = motion.predict(x, y);
+            let (px, py) = motion.flow_at(x, y);
             let (tx, ty) = truth(x, y);
             assert!(
                 (px - tx).abs() < tol && (py - ty).abs() < tol,

@@ -608,10 +608,14 @@ impl DenseFlow {
     /// pyramid from its centre; one too flat to track stays [`NodeStatus::LowTexture`], which
     /// the whole pyramid would find again at the same finest-level window.
     ///
+    /// `predict` gives a position, as the tracker's `predict` does: where a node's centre in
+    /// `prev` is expected in `next` (a still camera is `|p| p`), not its flow. The flow a
+    /// node takes from it is that position less its centre.
+    ///
     /// Before any search, the camera check ([`DenseParams::camera_tolerance`]) compares each
     /// node's window with the next frame at the prediction: where they agree to within the
     /// noise and a fraction of the window's own texture, the node takes the predicted flow
-    /// without LK. That fraction bounds its error, in pixels along the window's weaker
+    /// (the prediction less its centre) without LK. That fraction bounds its error, in pixels along the window's weaker
     /// direction, besides the prediction's own.
     ///
     /// ```

@@ -25,7 +25,8 @@
 //!
 //! [`MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
 //! homography from the ego-motion estimator) can replace [`DominantMotion`] through the
-//! [`CameraMotion`] trait.
+//! [`CameraMotion`] trait, whose [`CameraMotion::flow_at`] gives the camera's flow at a pixel
+//! (a displacement, not a position).
 //!
 //! Nothing allocates: nodes, masks and boxes live in caller-owned slices sized by `const fn`s.
 //!

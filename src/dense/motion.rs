@@ -10,6 +10,11 @@ use crate::ego::Homography;
 
 /// The flow the camera's own motion gives each pixel.
 ///
+/// [`CameraMotion::flow_at`] is a displacement, not a position: the static scene at (`x`, `y`)
+/// in the previous frame is at (`x + dx`, `y + dy`) in the next. Positions are what
+/// [`Homography::apply`], [`Camera::predict`](crate::ego::Camera::predict) and the tracker's
+/// `predict` give.
+///
 /// Implemented by [`DominantMotion`](super::DominantMotion), fitted to the grid, and
 /// by [`Homography`], such as the ego-motion fitted to the tracks; implement it for another
 /// model (a gyro-predicted rotation) to use that model for the mask instead.
@@ -18,29 +23,32 @@ use crate::ego::Homography;
 /// use kestrel::dense::CameraMotion;
 /// struct Pan(f32);
 /// impl CameraMotion for Pan {
-///     fn predict(&self, _x: f32, _y: f32) -> (f32, f32) {
+///     fn flow_at(&self, _x: f32, _y: f32) -> (f32, f32) {
 ///         (self.0, 0.0)
 ///     }
 /// }
-/// assert_eq!(Pan(1.5).predict(10.0, 20.0), (1.5, 0.0));
+/// assert_eq!(Pan(1.5).flow_at(10.0, 20.0), (1.5, 0.0));
 /// ```
 pub trait CameraMotion {
-    /// The flow, px, of the static scene at pixel (`x`, `y`) of the previous frame.
-    fn predict(&self, x: f32, y: f32) -> (f32, f32);
+    /// The flow `(dx, dy)`, px, of the static scene at pixel (`x`, `y`) of the previous frame:
+    /// how far that pixel moves to the next frame.
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32);
 }
 
 /// The flow a homography of the camera's motion (previous frame to next) gives each pixel.
 /// A pixel it cannot map (behind the camera: not the case of a fitted frame-to-frame model)
-/// is predicted still.
+/// gets a zero flow: it is taken as still.
 ///
 /// ```
 /// use kestrel::dense::CameraMotion;
 /// use kestrel::ego::Homography;
 /// let pan = Homography::translation(1.5, -0.5).unwrap();
-/// assert_eq!(pan.predict(10.0, 20.0), (1.5, -0.5));
+/// // The homography maps a pixel to its position; its flow is the difference.
+/// assert_eq!(pan.apply((10.0, 20.0)), Some((11.5, 19.5)));
+/// assert_eq!(pan.flow_at(10.0, 20.0), (1.5, -0.5));
 /// ```
 impl CameraMotion for Homography {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
         self.apply((x, y))
             .map_or((0.0, 0.0), |(u, v)| (u - x, v - y))
     }
@@ -304,11 +312,11 @@ impl MotionDetector {
     ) -> f32 {
         let (col, row) = layout.node(index);
         let (x, y) = layout.centre(col, row);
-        let (cx, cy) = camera.predict(x as f32, y as f32);
+        let (cx, cy) = camera.flow_at(x as f32, y as f32);
         let (dx, dy) = node.flow.to_f32();
         let (rx, ry) = (dx - cx, dy - cy);
         let r2 = rx * rx + ry * ry;
-        // A camera model that predicts NaN says nothing: the node does not move.
+        // A camera model whose flow is NaN says nothing: the node does not move.
         if r2.is_nan() {
             0.0
         } else {
@@ -446,7 +454,7 @@ mod tests {
     fn a_nan_camera_marks_nothing() {
         struct Broken;
         impl CameraMotion for Broken {
-            fn predict(&self, _: f32, _: f32) -> (f32, f32) {
+            fn flow_at(&self, _: f32, _: f32) -> (f32, f32) {
                 (f32::NAN, 0.0)
             }
         }

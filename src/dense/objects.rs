@@ -238,7 +238,7 @@ pub enum ObjectsStage {
 /// assert!((dx - 3.0).abs() < 0.2 && dy.abs() < 0.2);
 /// // The camera stood still, as the grid's own fit says.
 /// let fit = step.fit.unwrap();
-/// let (cx, cy) = fit.motion.predict(48.0, 32.0);
+/// let (cx, cy) = fit.motion.flow_at(48.0, 32.0);
 /// assert!(cx.abs() < 0.05 && cy.abs() < 0.05);
 /// ```
 ///

@@ -90,7 +90,7 @@ pub const OUTLINE_MAX_REACH: usize = 128;
 /// # }
 /// # struct Still;
 /// # impl CameraMotion for Still {
-/// #     fn predict(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
+/// #     fn flow_at(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
 /// # }
 /// # let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
 /// #
@@ -221,7 +221,7 @@ impl Default for OutlineParams {
 /// }
 /// struct Still;
 /// impl CameraMotion for Still {
-///     fn predict(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
+///     fn flow_at(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
 /// }
 /// let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
 ///
@@ -416,7 +416,7 @@ mod tests {
 
     struct Still;
     impl CameraMotion for Still {
-        fn predict(&self, _: f32, _: f32) -> (f32, f32) {
+        fn flow_at(&self, _: f32, _: f32) -> (f32, f32) {
             (0.0, 0.0)
         }
     }

@@ -24,8 +24,8 @@ const NO_BIN: u16 = u16::MAX;
 struct Scaled<'a, C>(&'a C);
 
 impl<C: CameraMotion> CameraMotion for Scaled<'_, C> {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
-        let (dx, dy) = self.0.predict(2.0 * x, 2.0 * y);
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
+        let (dx, dy) = self.0.flow_at(2.0 * x, 2.0 * y);
         (0.5 * dx, 0.5 * dy)
     }
 }
@@ -77,7 +77,7 @@ impl Outliner {
         let half = area.halved(prev);
         let reach = (self.params.reach / 2) as i32;
         let side = 2 * reach as usize + 1;
-        let (cx, cy) = camera.predict((area.x + area.w / 2) as f32, (area.y + area.h / 2) as f32);
+        let (cx, cy) = camera.flow_at((area.x + area.w / 2) as f32, (area.y + area.h / 2) as f32);
         let shifts = Shifts {
             reach,
             side,

@@ -9,7 +9,7 @@ use host_sim::dense::{DenseRunner, MotionRunner, MotionSettings};
 use host_sim::synth::{pair, Homography, SceneSpec};
 use host_sim::tracking::{config_for, HostBuffers};
 use host_sim::Frame;
-use kestrel::dense::grid::DenseParams;
+use kestrel::dense::DenseParams;
 use kestrel::detect::{fast_scratch_len, shi_tomasi_scratch_len, Corner, Fast, Region, ShiTomasi};
 use kestrel::ego::{ModelKind, Ransac, RansacParams};
 use kestrel::frame::ImageView;

@@ -12,8 +12,9 @@
 use host_sim::dense::DenseRunner;
 use host_sim::synth::{true_position, Homography, Lighting, Scene, SceneSpec, SplitMix64};
 use host_sim::Frame;
-use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus};
-use kestrel::dense::DenseError;
+use kestrel::dense::{
+    grid_len, DenseError, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus,
+};
 use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};

@@ -11,7 +11,7 @@
 //! box on one of them is neither a hit nor a false box. Everything else is a false box,
 //! including a box on an object that stands still. Objects are asked for from frame 2 on: a
 //! region is reported once it has moved in two consecutive frame pairs
-//! (`kestrel::dense::persist`), so the first pair, frames 0 and 1, reports none (its boxes,
+//! (`kestrel::dense::BoxPersistence`), so the first pair, frames 0 and 1, reports none (its boxes,
 //! were there any, would still be scored as false or not).
 
 use host_sim::dense::{MotionRunner, MotionSettings};

@@ -25,7 +25,7 @@ use host_sim::dense::{MotionFrame, MotionRunner, MotionSettings};
 use host_sim::synth::{Homography, Lighting, Scene, SceneSpec, SplitMix64};
 use host_sim::tracking::HostBuffers;
 use host_sim::Frame;
-use kestrel::dense::grid::GridNode;
+use kestrel::dense::GridNode;
 use kestrel::ego::{EgoMotion, EgoStatus, Ransac, RansacParams};
 use kestrel::track::{FrameReport, Track, Tracker, TrackerConfig};
 

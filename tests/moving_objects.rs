@@ -9,12 +9,10 @@
 
 use host_sim::dense::{MotionRunner, MotionSettings};
 use host_sim::synth::objects::{match_boxes, BoxPx, ObjectSequence, Scenario};
-use kestrel::dense::grid::{grid_len, GridNode};
-use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::motion_scratch_len;
-use kestrel::dense::outline::outline_scratch_len;
-use kestrel::dense::regions::MotionBox;
-use kestrel::dense::{MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
+use kestrel::dense::{
+    grid_len, mask_words, motion_scratch_len, outline_scratch_len, GridNode, MotionBox,
+    MovingObjects, MovingObjectsBuffers, MovingObjectsConfig,
+};
 use kestrel::ego::{EgoMotion, EgoStatus, Homography, ModelKind};
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};

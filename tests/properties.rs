@@ -21,9 +21,7 @@ use host_sim::dense::{MotionRunner, MotionSettings};
 use host_sim::synth::{grid_points, pair, textured_points, true_position, Homography, SceneSpec};
 use host_sim::tracking::HostBuffers;
 use host_sim::Frame;
-use kestrel::dense::dominant::FitParams;
-use kestrel::dense::grid::{DenseParams, NodeStatus};
-use kestrel::dense::motion::MotionParams;
+use kestrel::dense::{DenseParams, DominantFitParams, MotionParams, NodeStatus};
 use kestrel::detect::{Fast, Grid, ShiTomasi};
 use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
 use kestrel::ego::{
@@ -652,7 +650,7 @@ fn dense_settings() -> impl Strategy<Value = MotionSettings> {
                         fill_passes,
                         ..defaults
                     },
-                    fit: FitParams::default(),
+                    fit: DominantFitParams::default(),
                     motion: MotionParams {
                         include_filled,
                         ..MotionParams::default()

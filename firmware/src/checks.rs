@@ -3,7 +3,7 @@
 //! Each check returns the figure it measured, so the report shows how close a pass was; the
 //! tolerances are here, in one place.
 
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::MotionBox;
 use kestrel::ego::mavlink::OPTICAL_FLOW_RAD_ID;
 use kestrel::ego::{EgoStatus, OpticalFlowRad};
 use kestrel::Point;

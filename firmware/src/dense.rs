@@ -2,12 +2,10 @@
 //! ([`kestrel::dense::MovingObjects`]) on an 8 px grid, against the camera's motion fitted to
 //! the tracks, without the outline.
 
-use kestrel::dense::grid::{grid_len, DenseParams, GridNode};
-use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::{motion_scratch_len, MotionParams};
-use kestrel::dense::regions::MotionBox;
 use kestrel::dense::{
-    DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, ObjectsStep,
+    grid_len, mask_words, motion_scratch_len, DenseError, DenseParams, GridNode, MotionBox,
+    MotionParams, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage,
+    ObjectsStep,
 };
 use kestrel::ego::EgoMotion;
 use kestrel::lk::LkParams;

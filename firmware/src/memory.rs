@@ -3,7 +3,7 @@
 use core::mem::size_of;
 
 use cortex_m_semihosting::hprintln;
-use kestrel::dense::grid::GridNode;
+use kestrel::dense::GridNode;
 use kestrel::detect::Corner;
 
 use crate::dense::{Dense, MASK_WORDS, MOTION_SCRATCH_LEN, NODES};

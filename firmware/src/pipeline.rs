@@ -5,9 +5,7 @@
 //! frame's pyramid is built once. Level 0 of each is the camera frame itself, borrowed in place,
 //! never copied.
 
-use kestrel::dense::grid::DenseSummary;
-use kestrel::dense::motion::MotionSummary;
-use kestrel::dense::{DenseError, ObjectsStage};
+use kestrel::dense::{DenseError, DenseSummary, MotionSummary, ObjectsStage};
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
 use kestrel::ego::{CameraError, EgoMotion, ModelKind, OpticalFlowRad, RansacError};
@@ -274,7 +272,7 @@ impl Pipeline {
     }
 
     /// The boxes of the latest frame, largest first, in the previous frame's pixels.
-    pub fn boxes(&self) -> &[kestrel::dense::regions::MotionBox] {
+    pub fn boxes(&self) -> &[kestrel::dense::MotionBox] {
         self.dense.found()
     }
 

@@ -15,7 +15,7 @@ use host_sim::dense::field::FlowField;
 use host_sim::synth::objects::{BoxPx, MovingObject, ObjectSequence};
 use host_sim::synth::{CameraPath, Scene, SceneSpec};
 use image::{GrayImage, Luma};
-use kestrel::dense::grid::grid_len;
+use kestrel::dense::grid_len;
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;

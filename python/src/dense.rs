@@ -4,8 +4,10 @@ use host_sim::dense::field::FlowField;
 use host_sim::dense::wheel::{colour_wheel, flow_colour, flow_picture};
 use host_sim::dense::{MotionFrame, MotionRunner, MotionSettings};
 use host_sim::Frame as HostFrame;
-use kestrel::dense::grid::{DenseFlow, DenseParams, GridLayout, GridNode};
-use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked, DEFAULT_GATE, DEFAULT_PASSES};
+use kestrel::dense::{
+    smooth_scratch_len, smooth_tracked, DenseFlow, DenseParams, GridLayout, GridNode, SMOOTH_GATE,
+    SMOOTH_PASSES,
+};
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
@@ -40,8 +42,8 @@ fn grid_flow(
         .map_err(|e| e.to_string())?;
     if smooth {
         let mut rows = vec![Point::default(); smooth_scratch_len(layout.width(), layout.cell())];
-        for _ in 0..DEFAULT_PASSES {
-            smooth_tracked(layout, &mut nodes, DEFAULT_GATE, &mut rows)
+        for _ in 0..SMOOTH_PASSES {
+            smooth_tracked(layout, &mut nodes, SMOOTH_GATE, &mut rows)
                 .map_err(|e| e.to_string())?;
         }
     }
@@ -286,7 +288,7 @@ fn motion_result(
     height: usize,
 ) -> PyResult<MotionResult> {
     let k = found.boxes.len();
-    let rect = |b: &kestrel::dense::regions::MotionBox| {
+    let rect = |b: &kestrel::dense::MotionBox| {
         [
             i32::from(b.x),
             i32::from(b.y),

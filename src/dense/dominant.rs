@@ -1,26 +1,9 @@
-//! The camera's motion, as the dominant affine motion of the grid flow.
-//!
-//! When the camera moves, every pixel moves; an object is what moves *differently*. The
-//! camera's share is estimated here from the measured nodes as an affine flow field
-//!
-//! ```text
-//! dx = a0 + a1·x + a2·y        dy = b0 + b1·x + b2·y
-//! ```
-//!
-//! which holds pan, roll and zoom exactly and small tilts approximately. Moving objects are
-//! outliers to it, so it is fitted robustly, by iteratively reweighted least squares with
-//! Tukey's biweight:
-//!
-//! 1. Start from the median flow (exact, by bisection over the Q16 values: no buffer, no sort).
-//! 2. Each iteration weighs every measured node by `(1 - (r/c)²)²` for a residual `r` below
-//!    the radius `c` (0 beyond) and solves the weighted normal equations, two 3 x 3 systems.
-//! 3. The radius starts wide (rotation and zoom put far nodes pixels away from the median)
-//!    and halves each iteration down to the inlier radius.
+//! The camera's motion, as the dominant affine motion of the grid flow: [`DominantMotion`]
+//! and its fit.
 //!
 //! Everything is `f32`, in coordinates centred on the frame and scaled to about ±1 so the
 //! normal equations stay well conditioned; the iteration count is bounded and the result is a
-//! pure function of the nodes. A degenerate fit (nodes on a line, no weight left) falls back to
-//! a translation, then to the previous estimate, so the result is always finite.
+//! pure function of the nodes.
 
 use super::grid::{GridLayout, GridNode};
 use super::motion::CameraMotion;
@@ -28,13 +11,23 @@ use super::DenseError;
 
 /// An affine flow field: the motion the camera gives every pixel.
 ///
+/// When the camera moves, every pixel moves; an object is what moves *differently*. The
+/// camera's share is estimated from the measured nodes ([`DominantMotion::fit`]) as an affine
+/// flow field
+///
+/// ```text
+/// dx = a0 + a1·x + a2·y        dy = b0 + b1·x + b2·y
 /// ```
-/// use kestrel::dense::dominant::DominantMotion;
+///
+/// which holds pan, roll and zoom exactly and small tilts approximately.
+///
+/// ```
+/// use kestrel::dense::DominantMotion;
 /// let pan = DominantMotion::translation(2.0, -1.0);
-/// assert_eq!(pan.predict(50.0, 80.0), (2.0, -1.0));
+/// assert_eq!(pan.flow_at(50.0, 80.0), (2.0, -1.0));
 /// // A 1% zoom about the origin moves (100, 0) by 1 px to the right.
 /// let zoom = DominantMotion { dx: [0.0, 0.01, 0.0], dy: [0.0, 0.0, 0.01] };
-/// assert_eq!(zoom.predict(100.0, 0.0), (1.0, 0.0));
+/// assert_eq!(zoom.flow_at(100.0, 0.0), (1.0, 0.0));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -55,7 +48,7 @@ impl DominantMotion {
     /// The same shift everywhere.
     ///
     /// ```
-    /// use kestrel::dense::dominant::DominantMotion;
+    /// use kestrel::dense::DominantMotion;
     /// assert_eq!(DominantMotion::translation(0.0, 0.0), DominantMotion::ZERO);
     /// ```
     pub const fn translation(dx: f32, dy: f32) -> Self {
@@ -65,26 +58,41 @@ impl DominantMotion {
         }
     }
 
-    /// The flow this motion gives pixel (`x`, `y`).
+    /// The flow `(dx, dy)`, px, this motion gives pixel (`x`, `y`) of the previous frame: a
+    /// displacement, not a position (the pixel is at (`x + dx`, `y + dy`) in the next frame).
+    /// The same as its [`CameraMotion::flow_at`].
     ///
     /// ```
-    /// use kestrel::dense::dominant::DominantMotion;
-    /// assert_eq!(DominantMotion::ZERO.predict(3.0, 4.0), (0.0, 0.0));
+    /// use kestrel::dense::DominantMotion;
+    /// assert_eq!(DominantMotion::ZERO.flow_at(3.0, 4.0), (0.0, 0.0));
     /// ```
-    pub fn predict(&self, x: f32, y: f32) -> (f32, f32) {
+    pub fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
         let [a0, a1, a2] = self.dx;
         let [b0, b1, b2] = self.dy;
         (a0 + a1 * x + a2 * y, b0 + b1 * x + b2 * y)
     }
 
-    /// Fits the dominant motion to the measured nodes of `nodes` (see the module
-    /// documentation). Filled and invalid nodes are ignored; without any measured node the
-    /// result is [`DominantMotion::ZERO`]. A node slice shorter than the layout is refused
-    /// ([`DenseError::NodesTooShort`]): its missing rows would read as unmeasured.
+    /// Fits the dominant motion to the measured nodes of `nodes`. Filled and invalid nodes
+    /// are ignored; without any measured node the result is [`DominantMotion::ZERO`]. A node
+    /// slice shorter than the layout is refused ([`DenseError::NodesTooShort`]): its missing
+    /// rows would read as unmeasured.
+    ///
+    /// Moving objects are outliers to the camera's motion, so it is fitted robustly, by
+    /// iteratively reweighted least squares with Tukey's biweight ([`DominantFitParams`]):
+    ///
+    /// 1. Start from the median flow (exact, by bisection over the Q16 values: no buffer, no
+    ///    sort).
+    /// 2. Each iteration weighs every measured node by `(1 - (r/c)²)²` for a residual `r` below
+    ///    the radius `c` (0 beyond) and solves the weighted normal equations, two 3 x 3
+    ///    systems.
+    /// 3. The radius starts wide (rotation and zoom put far nodes pixels away from the median)
+    ///    and halves each iteration down to the inlier radius.
+    ///
+    /// A degenerate fit (nodes on a line, no weight left) falls back to a translation, then to
+    /// the previous estimate, so the result is always finite.
     ///
     /// ```
-    /// use kestrel::dense::dominant::{DominantMotion, FitParams};
-    /// use kestrel::dense::grid::{GridLayout, GridNode};
+    /// use kestrel::dense::{DominantFitParams, DominantMotion, GridLayout, GridNode};
     /// use kestrel::Point;
     ///
     /// // The camera pans 1.5 px right; two nodes of an object move 5 px down.
@@ -92,17 +100,17 @@ impl DominantMotion {
     /// let mut nodes = [GridNode::tracked(Point::from_f32(1.5, 0.0)); 64];
     /// nodes[9] = GridNode::tracked(Point::from_f32(1.5, 5.0));
     /// nodes[10] = GridNode::tracked(Point::from_f32(1.5, 5.0));
-    /// let fit = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap();
+    /// let fit = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap();
     /// assert_eq!((fit.measured, fit.inliers), (64, 62));
-    /// let (dx, dy) = fit.motion.predict(20.0, 12.0);
+    /// let (dx, dy) = fit.motion.flow_at(20.0, 12.0);
     /// assert!((dx - 1.5).abs() < 1e-3 && dy.abs() < 1e-3);
-    /// let short = DominantMotion::fit(&layout, &nodes[..63], &FitParams::default());
+    /// let short = DominantMotion::fit(&layout, &nodes[..63], &DominantFitParams::default());
     /// assert_eq!(short.unwrap_err(), kestrel::dense::DenseError::NodesTooShort);
     /// ```
     pub fn fit(
         layout: &GridLayout,
         nodes: &[GridNode],
-        params: &FitParams,
+        params: &DominantFitParams,
     ) -> Result<DominantFit, DenseError> {
         params.check()?;
         if nodes.len() < layout.len() {
@@ -153,17 +161,15 @@ impl DominantMotion {
 }
 
 impl CameraMotion for DominantMotion {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
-        DominantMotion::predict(self, x, y)
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
+        DominantMotion::flow_at(self, x, y)
     }
 }
 
 /// How the dominant motion is fitted.
 ///
 /// ```
-/// use kestrel::dense::dominant::{DominantMotion, FitParams};
-/// use kestrel::dense::grid::{GridLayout, GridNode};
-/// use kestrel::dense::DenseError;
+/// use kestrel::dense::{DenseError, DominantFitParams, DominantMotion, GridLayout, GridNode};
 /// use kestrel::Point;
 ///
 /// // The camera pans 1 px right; four nodes measured 1.5 px more.
@@ -173,7 +179,7 @@ impl CameraMotion for DominantMotion {
 ///     nodes[i] = GridNode::tracked(Point::from_f32(2.5, 0.0));
 /// }
 /// let fit = |inlier_radius| {
-///     let params = FitParams { inlier_radius, ..FitParams::default() };
+///     let params = DominantFitParams { inlier_radius, ..DominantFitParams::default() };
 ///     DominantMotion::fit(&layout, &nodes, &params)
 /// };
 /// // Within the default radius of 1 px, only the pan's nodes are inliers; 2 px takes all.
@@ -183,7 +189,7 @@ impl CameraMotion for DominantMotion {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FitParams {
+pub struct DominantFitParams {
     /// Tukey radius of the first iteration, px: wide enough to hold the background's spread of
     /// flows around the median under rotation and zoom.
     pub start_radius: f32,
@@ -193,7 +199,7 @@ pub struct FitParams {
     pub iterations: u8,
 }
 
-impl Default for FitParams {
+impl Default for DominantFitParams {
     fn default() -> Self {
         Self {
             start_radius: 8.0,
@@ -203,7 +209,7 @@ impl Default for FitParams {
     }
 }
 
-impl FitParams {
+impl DominantFitParams {
     pub(crate) fn check(&self) -> Result<(), DenseError> {
         let positive = |r: f32| r.is_finite() && r > 0.0;
         if positive(self.start_radius) && positive(self.inlier_radius) {
@@ -226,7 +232,7 @@ pub struct DominantFit {
     pub motion: DominantMotion,
     /// Measured nodes the fit used.
     pub measured: usize,
-    /// Measured nodes within [`FitParams::inlier_radius`] of the motion.
+    /// Measured nodes within [`DominantFitParams::inlier_radius`] of the motion.
     pub inliers: usize,
     /// Root-mean-square distance of the inliers' flow from the motion, px: how precisely the
     /// static scene was measured.
@@ -340,14 +346,14 @@ impl Affine {
         }
     }
 
-    fn predict(&self, u: f32, v: f32) -> (f32, f32) {
+    fn flow_at(&self, u: f32, v: f32) -> (f32, f32) {
         let [c0, c1, c2] = self.c;
         let [d0, d1, d2] = self.d;
         (c0 + c1 * u + c2 * v, d0 + d1 * u + d2 * v)
     }
 
     fn residual_sq(&self, u: f32, v: f32, (dx, dy): (f32, f32)) -> f32 {
-        let (px, py) = self.predict(u, v);
+        let (px, py) = self.flow_at(u, v);
         (dx - px) * (dx - px) + (dy - py) * (dy - py)
     }
 
@@ -471,7 +477,7 @@ mod tests {
             (80.0, 60.0),
             (159.0, 119.0),
         ] {
-            let (px, py) = motion.predict(x, y);
+            let (px, py) = motion.flow_at(x, y);
             let (tx, ty) = truth(x, y);
             assert!(
                 (px - tx).abs() < tol && (py - ty).abs() < tol,
@@ -496,7 +502,7 @@ mod tests {
     #[test]
     fn recovers_a_similarity_exactly() {
         let (layout, nodes) = nodes_with(camera);
-        let fit = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap();
+        let fit = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap();
         assert_eq!(fit.inliers, 300);
         assert_close(&fit.motion, camera, 1e-3);
     }
@@ -513,7 +519,7 @@ mod tests {
                 *node = GridNode::tracked(Point::from_f32(-30.0, 25.0));
             }
         }
-        let fit = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap();
+        let fit = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap();
         assert_close(&fit.motion, camera, 0.01);
         assert!(
             fit.inliers < 300 - 72 && fit.inliers > 200,
@@ -526,18 +532,18 @@ mod tests {
     fn degenerate_inputs_stay_finite() {
         let layout = GridLayout::new(160, 120, 8).unwrap();
         let none = [GridNode::EMPTY; 300];
-        let fit = DominantMotion::fit(&layout, &none, &FitParams::default()).unwrap();
+        let fit = DominantMotion::fit(&layout, &none, &DominantFitParams::default()).unwrap();
         assert_eq!((fit.motion, fit.measured), (DominantMotion::ZERO, 0));
         // One measured row: collinear nodes fall back to a translation.
         let mut row = [GridNode::EMPTY; 300];
         for node in row.iter_mut().take(20) {
             *node = GridNode::tracked(Point::from_f32(0.5, 1.5));
         }
-        let fit = DominantMotion::fit(&layout, &row, &FitParams::default()).unwrap();
+        let fit = DominantMotion::fit(&layout, &row, &DominantFitParams::default()).unwrap();
         assert_close(&fit.motion, |_, _| (0.5, 1.5), 1e-4);
-        let bad = FitParams {
+        let bad = DominantFitParams {
             inlier_radius: f32::NAN,
-            ..FitParams::default()
+            ..DominantFitParams::default()
         };
         assert_eq!(
             DominantMotion::fit(&layout, &row, &bad),
@@ -551,7 +557,7 @@ mod tests {
         let (layout, mut nodes) =
             nodes_with(|x, _| (1.0 + if x % 16.0 < 8.0 { 0.3 } else { -0.3 }, 0.0));
         nodes[7] = GridNode::tracked(Point::from_f32(9.0, 9.0));
-        let fit = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap();
+        let fit = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap();
         assert_eq!(fit.inliers, 299);
         assert!((fit.spread - 0.3).abs() < 1e-3, "{}", fit.spread);
     }

@@ -1,23 +1,24 @@
-//! Filling invalid nodes from their valid neighbours.
-//!
-//! A flat patch of road or sky has no flow of its own, but pictures, interpolated flow fields
-//! and the motion mask want a value there. Each pass gives every still-empty node the
-//! component-wise median of the flows around it (its 3 x 3 neighbourhood), provided at least
-//! [`MIN_SOURCES`] of them are known: measured, or filled by an *earlier* pass. Only earlier
-//! passes count, so the result does not depend on the order the nodes are visited in, and pass
-//! `k` reaches exactly `k` nodes away from the measurements. The median, unlike the mean, does
-//! not blend an object's flow with the background's at its border.
+//! Filling invalid nodes from their valid neighbours: [`fill_invalid`].
 
 use super::grid::{GridLayout, GridNode, NodeStatus, NEIGHBOURS};
 use super::DenseError;
 use crate::q16::{Point, Q16};
 
 /// Known neighbours a node needs to be filled: one alone would copy a possibly wrong value.
-pub const MIN_SOURCES: usize = 2;
+pub const FILL_MIN_SOURCES: usize = 2;
 
-/// Runs `passes` fill passes over the first [`GridLayout::len`] `nodes` and returns how many
-/// nodes were filled. Filled nodes get [`NodeStatus::Filled`] and the pass number in
-/// [`GridNode::fill_pass`]; nodes already filled count as earlier passes.
+/// Fills invalid nodes from their valid neighbours: runs `passes` fill passes over the first
+/// [`GridLayout::len`] `nodes` and returns how many nodes were filled. Filled nodes get
+/// [`NodeStatus::Filled`] and the pass number in [`GridNode::fill_pass`]; nodes already filled
+/// count as earlier passes.
+///
+/// A flat patch of road or sky has no flow of its own, but pictures, interpolated flow fields
+/// and the motion mask want a value there. Each pass gives every still-empty node the
+/// component-wise median of the flows around it (its 3 x 3 neighbourhood), provided at least
+/// [`FILL_MIN_SOURCES`] of them are known: measured, or filled by an *earlier* pass. Only
+/// earlier passes count, so the result does not depend on the order the nodes are visited in,
+/// and pass `k` reaches exactly `k` nodes away from the measurements. The median, unlike the
+/// mean, does not blend an object's flow with the background's at its border.
 ///
 /// # Errors
 ///
@@ -25,9 +26,7 @@ pub const MIN_SOURCES: usize = 2;
 /// A shorter slice would lose the neighbours of its last row and fill it differently.
 ///
 /// ```
-/// use kestrel::dense::fill::fill_invalid;
-/// use kestrel::dense::grid::{GridLayout, GridNode, NodeStatus};
-/// use kestrel::dense::DenseError;
+/// use kestrel::dense::{fill_invalid, DenseError, GridLayout, GridNode, NodeStatus};
 /// use kestrel::Point;
 ///
 /// // A 3 x 3 grid: the centre is unknown, its neighbours moved 2 px right.
@@ -80,7 +79,7 @@ pub fn fill_invalid(
 }
 
 /// The component-wise median of the known neighbours of node `index`, counting filled nodes
-/// only from passes before `pass`; `None` with fewer than [`MIN_SOURCES`].
+/// only from passes before `pass`; `None` with fewer than [`FILL_MIN_SOURCES`].
 fn neighbour_median(
     layout: &GridLayout,
     nodes: &[GridNode],
@@ -101,7 +100,7 @@ fn neighbour_median(
             count = count.saturating_add(1);
         }
     }
-    if count < MIN_SOURCES {
+    if count < FILL_MIN_SOURCES {
         return None;
     }
     let x = median(xs.get_mut(..count)?);

@@ -1,19 +1,4 @@
-//! Flow at every node of a regular grid.
-//!
-//! A `cell` x `cell` grid covers the frame; its nodes sit at the cell centres,
-//! `(cell/2 + i·cell, cell/2 + j·cell)`, for every centre inside the frame (so a partial last cell
-//! still has a node when its centre fits). Each node is tracked from the previous frame to the
-//! next by the core pyramidal LK ([`LucasKanade::track_point`]) and classified:
-//!
-//! - [`NodeStatus::Tracked`]: converged, inside the frame, residual under the gate;
-//! - [`NodeStatus::LowTexture`]: the window is too flat to say anything;
-//! - [`NodeStatus::Residual`]: converged, but the window does not match (occlusion, a moving
-//!   edge, a reflection): the flow is not trusted;
-//! - [`NodeStatus::Lost`]: the iterations did not converge, or the node left the frame;
-//! - [`NodeStatus::Filled`]: was invalid, then filled from valid neighbours ([`super::fill`]).
-//!
-//! Dense mode wants smaller windows than sparse tracking: a node's window should see one
-//! surface, not the object and the background around it. The default is 9 x 9 on an 8 px grid.
+//! Flow at every node of a regular grid: [`DenseFlow`], and the [`GridLayout`] of its nodes.
 
 use super::agreement::agreement;
 use super::fill::fill_invalid;
@@ -26,7 +11,7 @@ use crate::q16::Point;
 /// inside `0..size`. Zero when `cell` is zero.
 ///
 /// ```
-/// use kestrel::dense::grid::grid_side;
+/// use kestrel::dense::grid_side;
 /// assert_eq!(grid_side(160, 8), 20);
 /// assert_eq!(grid_side(101, 8), 13); // the 13th centre, 100, is the last pixel
 /// assert_eq!(grid_side(100, 8), 12);
@@ -51,7 +36,7 @@ pub const fn grid_side(size: usize, cell: usize) -> usize {
 /// node slice [`DenseFlow::compute`] fills.
 ///
 /// ```
-/// use kestrel::dense::grid::{grid_len, GridNode};
+/// use kestrel::dense::{grid_len, GridNode};
 /// static mut NODES: [GridNode; grid_len(160, 120, 8)] = [GridNode::EMPTY; grid_len(160, 120, 8)];
 /// assert_eq!(grid_len(160, 120, 8), 300);
 /// assert_eq!(grid_len(320, 240, 8), 1200);
@@ -63,7 +48,7 @@ pub const fn grid_len(width: usize, height: usize, cell: usize) -> usize {
 /// The geometry of a grid: frame size, cell size, and the nodes' columns and rows.
 ///
 /// ```
-/// use kestrel::dense::grid::GridLayout;
+/// use kestrel::dense::GridLayout;
 /// let layout = GridLayout::new(160, 120, 8).unwrap();
 /// assert_eq!((layout.cols(), layout.rows(), layout.len()), (20, 15, 300));
 /// assert_eq!(layout.centre(0, 0), (4, 4));
@@ -84,8 +69,7 @@ impl GridLayout {
     /// The grid of `cell` px cells over a `width` x `height` frame.
     ///
     /// ```
-    /// use kestrel::dense::grid::GridLayout;
-    /// use kestrel::dense::DenseError;
+    /// use kestrel::dense::{DenseError, GridLayout};
     /// assert_eq!(GridLayout::new(160, 120, 0), Err(DenseError::ZeroCell));
     /// assert_eq!(GridLayout::new(160, 120, 121), Err(DenseError::CellTooLarge));
     /// assert!(GridLayout::new(160, 120, 120).is_ok());
@@ -109,7 +93,7 @@ impl GridLayout {
     /// Frame width, px.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().width(), 160);
     /// ```
     pub const fn width(&self) -> usize {
@@ -119,7 +103,7 @@ impl GridLayout {
     /// Frame height, px.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().height(), 120);
     /// ```
     pub const fn height(&self) -> usize {
@@ -129,7 +113,7 @@ impl GridLayout {
     /// Cell side, px: the distance between neighbouring nodes.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(160, 120, 8).unwrap().cell(), 8);
     /// ```
     pub const fn cell(&self) -> usize {
@@ -139,7 +123,7 @@ impl GridLayout {
     /// Node columns.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().cols(), 12);
     /// ```
     pub const fn cols(&self) -> usize {
@@ -149,7 +133,7 @@ impl GridLayout {
     /// Node rows.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().rows(), 6);
     /// ```
     pub const fn rows(&self) -> usize {
@@ -159,7 +143,7 @@ impl GridLayout {
     /// Number of nodes, [`grid_len`] of the frame and cell.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(100, 50, 8).unwrap().len(), 72);
     /// ```
     pub const fn len(&self) -> usize {
@@ -169,7 +153,7 @@ impl GridLayout {
     /// True when the grid has no node (never, for a layout [`GridLayout::new`] accepted).
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert!(!GridLayout::new(8, 8, 8).unwrap().is_empty());
     /// ```
     pub const fn is_empty(&self) -> bool {
@@ -179,7 +163,7 @@ impl GridLayout {
     /// The pixel at the centre of node (`col`, `row`).
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(64, 64, 16).unwrap().centre(1, 3), (24, 56));
     /// ```
     pub const fn centre(&self, col: usize, row: usize) -> (usize, usize) {
@@ -192,7 +176,7 @@ impl GridLayout {
     /// The index of node (`col`, `row`) in a node slice (row by row), `None` off the grid.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// let layout = GridLayout::new(64, 64, 16).unwrap();
     /// assert_eq!(layout.index(3, 3), Some(15));
     /// assert_eq!(layout.index(4, 0), None);
@@ -209,7 +193,7 @@ impl GridLayout {
     /// The column and row of the node at `index`.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// assert_eq!(GridLayout::new(64, 64, 16).unwrap().node(6), (2, 1));
     /// ```
     pub const fn node(&self, index: usize) -> (usize, usize) {
@@ -224,7 +208,7 @@ impl GridLayout {
     /// grid.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// let layout = GridLayout::new(64, 64, 16).unwrap();
     /// assert_eq!(layout.neighbour(5, (1, 1)), Some(10));
     /// assert_eq!(layout.neighbour(4, (-1, 0)), None);
@@ -237,7 +221,7 @@ impl GridLayout {
     /// The pixels of node (`col`, `row`)'s cell, clipped to the frame: `(x, y, width, height)`.
     ///
     /// ```
-    /// # use kestrel::dense::grid::GridLayout;
+    /// # use kestrel::dense::GridLayout;
     /// let layout = GridLayout::new(100, 50, 8).unwrap();
     /// assert_eq!(layout.cell_rect(0, 0), (0, 0, 8, 8));
     /// assert_eq!(layout.cell_rect(11, 5), (88, 40, 8, 8));
@@ -307,7 +291,7 @@ pub enum NodeStatus {
 /// The flow at one grid node.
 ///
 /// ```
-/// use kestrel::dense::grid::{GridNode, NodeStatus};
+/// use kestrel::dense::{GridNode, NodeStatus};
 /// use kestrel::Point;
 /// let node = GridNode::tracked(Point::from_f32(1.5, -0.25));
 /// assert!(node.is_valid() && node.has_flow());
@@ -337,7 +321,7 @@ impl GridNode {
     /// A measured node.
     ///
     /// ```
-    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// use kestrel::dense::{GridNode, NodeStatus};
     /// assert_eq!(GridNode::tracked(Default::default()).status, NodeStatus::Tracked);
     /// ```
     pub const fn tracked(flow: Point) -> Self {
@@ -351,7 +335,7 @@ impl GridNode {
     /// A node whose flow is unknown for `status`'s reason.
     ///
     /// ```
-    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// use kestrel::dense::{GridNode, NodeStatus};
     /// assert!(!GridNode::invalid(NodeStatus::LowTexture).is_valid());
     /// ```
     pub const fn invalid(status: NodeStatus) -> Self {
@@ -364,7 +348,7 @@ impl GridNode {
     /// True when the flow was measured ([`NodeStatus::Tracked`]).
     ///
     /// ```
-    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// use kestrel::dense::{GridNode, NodeStatus};
     /// assert!(!GridNode { status: NodeStatus::Filled, ..GridNode::EMPTY }.is_valid());
     /// ```
     pub fn is_valid(&self) -> bool {
@@ -374,7 +358,7 @@ impl GridNode {
     /// True when the node has a flow, measured or filled.
     ///
     /// ```
-    /// use kestrel::dense::grid::{GridNode, NodeStatus};
+    /// use kestrel::dense::{GridNode, NodeStatus};
     /// assert!(GridNode { status: NodeStatus::Filled, ..GridNode::EMPTY }.has_flow());
     /// ```
     pub fn has_flow(&self) -> bool {
@@ -385,8 +369,7 @@ impl GridNode {
 /// Dense-mode parameters.
 ///
 /// ```
-/// use kestrel::dense::grid::{DenseFlow, DenseParams};
-/// use kestrel::dense::DenseError;
+/// use kestrel::dense::{DenseError, DenseFlow, DenseParams};
 /// // A node every `cell` px: over a 64 x 48 frame, 8 x 6 nodes for 8 px, 4 x 3 for 16 px.
 /// let nodes = |cell| {
 ///     let dense = DenseFlow::new(DenseParams { cell, ..DenseParams::default() }).unwrap();
@@ -430,9 +413,11 @@ impl DenseParams {
     pub const DEFAULT_WINDOW: usize = 9;
     /// The default LK minimum eigenvalue in dense mode, in OpenCV's scale (see
     /// [`LkParams::min_eigen_threshold`]): gradients of about 0.85 grey levels per pixel. Weaker
-    /// windows measure within a few tenths of a pixel, which [`super::smooth`] brings down
+    /// windows measure within a few tenths of a pixel, which [`smooth_tracked`] brings down
     /// where their neighbours move alike; below it, three quarters of a textured frame's
     /// nodes are measured.
+    ///
+    /// [`smooth_tracked`]: super::smooth_tracked
     pub const DEFAULT_MIN_EIGEN: f32 = 7e-4;
     /// The minimum eigenvalue for motion detection: gradients of about 1.7 grey levels per
     /// pixel. A weak window's error looks like motion of its own to the mask, so motion
@@ -440,10 +425,10 @@ impl DenseParams {
     pub const MOTION_MIN_EIGEN: f32 = 3e-3;
 
     /// The defaults with [`DenseParams::MOTION_MIN_EIGEN`]: what
-    /// [`super::motion::MotionDetector`]'s callers track the grid with.
+    /// [`MotionDetector`](super::MotionDetector)'s callers track the grid with.
     ///
     /// ```
-    /// use kestrel::dense::grid::DenseParams;
+    /// use kestrel::dense::DenseParams;
     /// let (grid, motion) = (DenseParams::default(), DenseParams::for_motion());
     /// assert!(motion.lk.min_eigen_threshold > grid.lk.min_eigen_threshold);
     /// assert_eq!(DenseParams { lk: grid.lk, ..motion }, grid);
@@ -489,7 +474,48 @@ pub struct DenseSummary {
     pub filled: usize,
 }
 
-/// A validated dense-flow configuration.
+/// Flow at every node of a regular grid: a validated dense-flow configuration.
+///
+/// A `cell` x `cell` grid covers the frame; its nodes sit at the cell centres,
+/// `(cell/2 + i·cell, cell/2 + j·cell)`, for every centre inside the frame (so a partial last
+/// cell still has a node when its centre fits): see [`GridLayout`]. Each node is tracked from
+/// the previous frame to the next by the core pyramidal LK ([`LucasKanade::track_point`]) and
+/// classified:
+///
+/// - [`NodeStatus::Tracked`]: converged, inside the frame, residual under the gate;
+/// - [`NodeStatus::LowTexture`]: the window is too flat to say anything;
+/// - [`NodeStatus::Residual`]: converged, but the window does not match (occlusion, a moving
+///   edge, a reflection): the flow is not trusted;
+/// - [`NodeStatus::Lost`]: the iterations did not converge, or the node left the frame;
+/// - [`NodeStatus::Filled`]: was invalid, then filled from valid neighbours ([`fill_invalid`]).
+///
+/// Dense mode wants smaller windows than sparse tracking: a node's window should see one
+/// surface, not the object and the background around it. The default is 9 x 9 on an 8 px grid
+/// ([`DenseParams`]).
+///
+/// ```
+/// use kestrel::dense::{grid_len, DenseFlow, DenseParams, GridNode};
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::scratch_len;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+///
+/// const W: usize = 64;
+/// const H: usize = 48;
+/// // A textured frame and the same texture 1 px to the right.
+/// let texture = |x: usize, y: usize| ((x * 37 + y * 91 + (x * y) % 13 * 17) % 251) as u8;
+/// let a: [u8; W * H] = core::array::from_fn(|i| texture(i % W + 1, i / W));
+/// let b: [u8; W * H] = core::array::from_fn(|i| texture(i % W, i / W));
+/// let mut storage_a = [0u8; pyramid_storage_len(W, H, 1)];
+/// let mut storage_b = [0u8; pyramid_storage_len(W, H, 1)];
+/// let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, &mut storage_a).unwrap();
+/// let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, &mut storage_b).unwrap();
+///
+/// let dense = DenseFlow::new(DenseParams { cell: 16, ..DenseParams::default() }).unwrap();
+/// let mut nodes = [GridNode::default(); grid_len(W, H, 16)];
+/// let mut scratch = [0i16; scratch_len(DenseParams::DEFAULT_WINDOW)];
+/// let summary = dense.compute(&prev, &next, &mut nodes, &mut scratch).unwrap();
+/// assert_eq!((summary.layout.cols(), summary.layout.rows()), (4, 3));
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct DenseFlow {
     params: DenseParams,
@@ -504,8 +530,7 @@ impl DenseFlow {
     /// Validates `params`.
     ///
     /// ```
-    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
-    /// use kestrel::dense::DenseError;
+    /// use kestrel::dense::{DenseError, DenseFlow, DenseParams};
     /// assert!(DenseFlow::new(DenseParams::default()).is_ok());
     /// let zero = DenseParams { cell: 0, ..DenseParams::default() };
     /// assert_eq!(DenseFlow::new(zero).unwrap_err(), DenseError::ZeroCell);
@@ -539,7 +564,7 @@ impl DenseFlow {
     /// The parameters this configuration was built with.
     ///
     /// ```
-    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
+    /// use kestrel::dense::{DenseFlow, DenseParams};
     /// let params = DenseParams { cell: 16, fill_passes: 0, ..DenseParams::for_motion() };
     /// assert_eq!(*DenseFlow::new(params).unwrap().params(), params);
     /// ```
@@ -550,7 +575,7 @@ impl DenseFlow {
     /// The grid this configuration lays over `width` x `height` frames.
     ///
     /// ```
-    /// use kestrel::dense::grid::{DenseFlow, DenseParams};
+    /// use kestrel::dense::{DenseFlow, DenseParams};
     /// let dense = DenseFlow::new(DenseParams::default()).unwrap();
     /// assert_eq!(dense.layout(320, 240).unwrap().len(), 1200);
     /// ```
@@ -561,9 +586,9 @@ impl DenseFlow {
     /// Tracks every node from `prev` to `next` into `nodes` (row by row, at least
     /// [`grid_len`] long; entries beyond it are left alone), then fills invalid nodes.
     ///
-    /// `scratch` is LK's, [`scratch_len`]`(params.lk.window)` values. See the module example.
-    /// Every refusal comes before the first node is written, so an error leaves `nodes` as
-    /// they were.
+    /// `scratch` is LK's, [`scratch_len`]`(params.lk.window)` values. See [`DenseFlow`]'s
+    /// example. Every refusal comes before the first node is written, so an error leaves
+    /// `nodes` as they were.
     pub fn compute(
         &self,
         prev: &Pyramid<'_>,
@@ -583,14 +608,18 @@ impl DenseFlow {
     /// pyramid from its centre; one too flat to track stays [`NodeStatus::LowTexture`], which
     /// the whole pyramid would find again at the same finest-level window.
     ///
+    /// `predict` gives a position, as the tracker's `predict` does: where a node's centre in
+    /// `prev` is expected in `next` (a still camera is `|p| p`), not its flow. The flow a
+    /// node takes from it is that position less its centre.
+    ///
     /// Before any search, the camera check ([`DenseParams::camera_tolerance`]) compares each
     /// node's window with the next frame at the prediction: where they agree to within the
     /// noise and a fraction of the window's own texture, the node takes the predicted flow
-    /// without LK. That fraction bounds its error, in pixels along the window's weaker
+    /// (the prediction less its centre) without LK. That fraction bounds its error, in pixels along the window's weaker
     /// direction, besides the prediction's own.
     ///
     /// ```
-    /// use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode};
+    /// use kestrel::dense::{grid_len, DenseFlow, DenseParams, GridNode};
     /// use kestrel::frame::ImageView;
     /// use kestrel::lk::scratch_len;
     /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};

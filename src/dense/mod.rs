@@ -4,23 +4,29 @@
 //! measures flow everywhere, on a coarse regular grid, and finds the parts of the frame whose
 //! motion differs from the camera's:
 //!
-//! 1. [`grid`]: LK flow at every node of a grid (node centres at `cell/2 + k·cell`), with a
-//!    validity per node from texture, convergence and the intensity residual.
-//! 2. [`fill`]: invalid nodes filled from their valid neighbours, marked as filled.
-//!    [`smooth`] can then average each measured node with the neighbours that move alike.
-//! 3. [`dominant`]: the camera's motion as a robust global affine model of the grid flow.
-//! 4. [`mask`]: nodes whose flow differs from that model, cleaned by morphology on the grid.
-//! 5. [`regions`]: connected regions of the mask as bounding boxes in pixels.
-//! 6. [`outline`]: each region outlined at pixel level, one box per object it holds (none
+//! 1. [`DenseFlow`]: LK flow at every node of a [`GridLayout`] (node centres at
+//!    `cell/2 + k·cell`), one [`GridNode`] each, with a [`NodeStatus`] from texture,
+//!    convergence and the intensity residual.
+//! 2. [`fill_invalid`]: invalid nodes filled from their valid neighbours, marked as filled.
+//!    [`smooth_tracked`] can then average each measured node with the neighbours that move
+//!    alike.
+//! 3. [`DominantMotion`]: the camera's motion as a robust global affine model of the grid flow
+//!    ([`DominantMotion::fit`]).
+//! 4. [`MotionDetector::mark`]: nodes whose flow differs from that model, in a node mask
+//!    ([`mask_words`]), cleaned by morphology on the grid ([`mask_close`], [`mask_open`]).
+//! 5. [`find_boxes`]: connected regions of the mask as bounding boxes in pixels
+//!    ([`MotionBox`]).
+//! 6. [`Outliner`]: each region outlined at pixel level, one box per object it holds (none
 //!    for a region of mismeasured nodes).
-//! 7. [`persist`]: the boxes whose objects moved in consecutive frame pairs.
+//! 7. [`BoxPersistence`]: the boxes whose objects moved in consecutive frame pairs.
 //!
 //! [`MovingObjects`] runs them in that order, one frame pair at a time: the motion detector as
 //! one type, the one the firmware and host-sim run.
 //!
-//! [`motion::MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
-//! homography from the ego-motion estimator) can replace [`dominant::DominantMotion`] through
-//! the [`motion::CameraMotion`] trait.
+//! [`MotionDetector`] runs steps 4 and 5 given a camera model, so a better model (a
+//! homography from the ego-motion estimator) can replace [`DominantMotion`] through the
+//! [`CameraMotion`] trait, whose [`CameraMotion::flow_at`] gives the camera's flow at a pixel
+//! (a displacement, not a position).
 //!
 //! Nothing allocates: nodes, masks and boxes live in caller-owned slices sized by `const fn`s.
 //!
@@ -32,59 +38,35 @@
 //! | buffer | sized by | 160 x 120 | 320 x 240 |
 //! |---|---|---|---|
 //! | two pyramids, levels 1 to 3 | [`crate::pyramid::pyramid_storage_len`] | 12 600 B | 50 400 B |
-//! | nodes, 12 B each | [`grid::grid_len`] | 3 600 B | 14 400 B |
+//! | nodes, 12 B each | [`grid_len`] | 3 600 B | 14 400 B |
 //! | LK scratch | [`crate::lk::scratch_len`] | 1 422 B | 1 422 B |
-//! | mask | [`mask::mask_words`] | 40 B | 152 B |
-//! | motion scratch | [`motion::motion_scratch_len`] | 1 240 B | 4 952 B |
+//! | mask | [`mask_words`] | 40 B | 152 B |
+//! | motion scratch | [`motion_scratch_len`] | 1 240 B | 4 952 B |
 //! | 16 boxes, 20 B each | | 320 B | 320 B |
 //! | total | | 19 222 B | 71 646 B |
 //!
 //! ```
 //! use core::mem::size_of;
-//! use kestrel::dense::{grid, mask, motion, regions};
+//! use kestrel::dense::{grid_len, mask_words, motion_scratch_len, GridNode, MotionBox};
 //! use kestrel::{lk, pyramid};
 //! const fn bytes(w: usize, h: usize) -> usize {
 //!     2 * pyramid::pyramid_storage_len(w, h, 3)
-//!         + grid::grid_len(w, h, 8) * size_of::<grid::GridNode>()
+//!         + grid_len(w, h, 8) * size_of::<GridNode>()
 //!         + lk::scratch_len(9) * size_of::<i16>()
-//!         + (mask::mask_words(w, h, 8) + motion::motion_scratch_len(w, h, 8)) * size_of::<u32>()
-//!         + 16 * size_of::<regions::MotionBox>()
+//!         + (mask_words(w, h, 8) + motion_scratch_len(w, h, 8)) * size_of::<u32>()
+//!         + 16 * size_of::<MotionBox>()
 //! }
-//! assert_eq!((size_of::<grid::GridNode>(), size_of::<regions::MotionBox>()), (12, 20));
+//! assert_eq!((size_of::<GridNode>(), size_of::<MotionBox>()), (12, 20));
 //! assert_eq!((bytes(160, 120), bytes(320, 240)), (19_222, 71_646));
 //! ```
 //!
-//! The outline ([`outline::Outliner`]) needs [`outline::outline_scratch_len`] words of `u16`
-//! besides: 11 778 B for regions up to 48 px and motions up to 8 px. The smoothing
-//! ([`smooth::smooth_tracked`]) needs [`smooth::smooth_scratch_len`] points: two rows of
-//! nodes, 320 B at 160 x 120 and 640 B at 320 x 240.
+//! The outline ([`Outliner`]) needs [`outline_scratch_len`] words of `u16` besides: 11 778 B
+//! for regions up to 48 px and motions up to 8 px. The smoothing ([`smooth_tracked`]) needs
+//! [`smooth_scratch_len`] points: two rows of nodes, 320 B at 160 x 120 and 640 B at
+//! 320 x 240.
 //!
 //! On the stack, this module's largest buffer is the 64 B of a fill median (LK's use comes on
 //! top).
-//!
-//! ```
-//! use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridNode};
-//! use kestrel::frame::ImageView;
-//! use kestrel::lk::scratch_len;
-//! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
-//!
-//! const W: usize = 64;
-//! const H: usize = 48;
-//! // A textured frame and the same texture 1 px to the right.
-//! let texture = |x: usize, y: usize| ((x * 37 + y * 91 + (x * y) % 13 * 17) % 251) as u8;
-//! let a: [u8; W * H] = core::array::from_fn(|i| texture(i % W + 1, i / W));
-//! let b: [u8; W * H] = core::array::from_fn(|i| texture(i % W, i / W));
-//! let mut storage_a = [0u8; pyramid_storage_len(W, H, 1)];
-//! let mut storage_b = [0u8; pyramid_storage_len(W, H, 1)];
-//! let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, &mut storage_a).unwrap();
-//! let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, &mut storage_b).unwrap();
-//!
-//! let dense = DenseFlow::new(DenseParams { cell: 16, ..DenseParams::default() }).unwrap();
-//! let mut nodes = [GridNode::default(); grid_len(W, H, 16)];
-//! let mut scratch = [0i16; scratch_len(DenseParams::DEFAULT_WINDOW)];
-//! let summary = dense.compute(&prev, &next, &mut nodes, &mut scratch).unwrap();
-//! assert_eq!((summary.layout.cols(), summary.layout.rows()), (4, 3));
-//! ```
 
 // The camera check's sums are bounded by its 12 px window (`agreement::MAX_CHECKED_WINDOW`):
 // at most 12 * 12 * 255 < 2^16, and its 16-bit lanes below 2^16 (proved beside them). Its
@@ -98,11 +80,11 @@
     )
 )]
 mod agreement;
-pub mod dominant;
-pub mod fill;
-pub mod grid;
-pub mod mask;
-pub mod motion;
+mod dominant;
+mod fill;
+mod grid;
+mod mask;
+mod motion;
 mod objects;
 // Per-pixel loops over a candidate's area: indices are below the area's pixels, bounded by the
 // checked scratch side (at most 255, so `u16` pixel indices), and sums of nine differences of
@@ -115,13 +97,31 @@ mod objects;
         clippy::indexing_slicing
     )
 )]
-pub mod outline;
-pub mod persist;
-pub mod regions;
-pub mod smooth;
+mod outline;
+mod persist;
+mod regions;
+mod smooth;
 
+pub use dominant::{DominantFit, DominantFitParams, DominantMotion};
+pub use fill::{fill_invalid, FILL_MIN_SOURCES};
+pub use grid::{
+    grid_len, grid_side, DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode, NodeStatus,
+};
+pub use mask::{
+    mask_close, mask_contains, mask_count, mask_open, mask_set, mask_words, MaskStructure,
+};
+pub use motion::{motion_scratch_len, CameraMotion, MotionDetector, MotionParams, MotionSummary};
 pub use objects::{
     MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, ObjectsStep,
+};
+pub use outline::{
+    outline_scratch_len, OutlineParams, Outliner, OUTLINE_MAX_FLOWS, OUTLINE_MAX_REACH,
+    OUTLINE_MAX_SIDE, OUTLINE_MIN_SIDE, OUTLINE_VOTED_FLOWS,
+};
+pub use persist::BoxPersistence;
+pub use regions::{find_boxes, BoxRules, MotionBox, RegionCount};
+pub use smooth::{
+    smooth_scratch_len, smooth_tracked, SMOOTH_GATE, SMOOTH_MIN_AFFINE, SMOOTH_PASSES,
 };
 
 use crate::lk::LkError;
@@ -138,21 +138,21 @@ pub enum DenseError {
     FrameTooSmall,
     /// The two pyramids were built from frames of different sizes.
     FrameSizeMismatch,
-    /// The node slice is shorter than [`grid::grid_len`].
+    /// The node slice is shorter than [`grid_len`].
     NodesTooShort,
     /// The LK scratch is shorter than [`crate::lk::scratch_len`] for the window.
     ScratchTooSmall,
-    /// The mask is shorter than [`mask::mask_words`].
+    /// The mask is shorter than [`mask_words`].
     MaskTooShort,
-    /// The motion scratch is shorter than [`motion::motion_scratch_len`].
+    /// The motion scratch is shorter than [`motion_scratch_len`].
     MotionScratchTooShort,
-    /// The smoothing's rows are shorter than [`smooth::smooth_scratch_len`].
+    /// The smoothing's rows are shorter than [`smooth_scratch_len`].
     SmoothScratchTooShort,
     /// A threshold is negative, NaN or infinite, or a smoothing gate is beyond a Q16 flow
     /// (32,768 px).
     BadThreshold,
-    /// The outline's side is outside [`outline::MIN_SIDE`] to [`outline::MAX_SIDE`], or its
-    /// reach above [`outline::MAX_REACH`].
+    /// The outline's side is outside [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`], or its reach
+    /// above [`OUTLINE_MAX_REACH`].
     BadOutline,
     /// The LK parameters were refused.
     Lk(LkError),

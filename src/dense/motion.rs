@@ -1,82 +1,54 @@
-//! The motion mask and moving-object boxes.
-//!
-//! A node moves on its own when its flow differs from the flow the camera gives it by more
-//! than a threshold. The camera's flow comes from a [`CameraMotion`]: for a still camera
-//! [`DominantMotion::ZERO`] (the test is then the flow's magnitude), for a moving one the
-//! [`DominantMotion`] fitted to the same grid, or any better model such as a homography from
-//! the ego-motion estimator. The raw mask is closed and opened on the grid ([`super::mask`]),
-//! and its connected regions of at least a minimum size become boxes ([`super::regions`]).
-//!
-//! [`DominantMotion`]: super::dominant::DominantMotion
-//! [`DominantMotion::ZERO`]: super::dominant::DominantMotion::ZERO
-//!
-//! ```
-//! use kestrel::dense::dominant::{DominantMotion, FitParams};
-//! use kestrel::dense::grid::{grid_len, GridLayout, GridNode};
-//! use kestrel::dense::mask::mask_words;
-//! use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
-//! use kestrel::dense::regions::MotionBox;
-//! use kestrel::Point;
-//!
-//! // The camera pans 2 px left; a 3 x 2 block of nodes moves 3 px down besides.
-//! let layout = GridLayout::new(96, 64, 8).unwrap();
-//! let mut nodes = [GridNode::tracked(Point::from_f32(-2.0, 0.0)); grid_len(96, 64, 8)];
-//! for (col, row) in [(4, 3), (5, 3), (6, 3), (4, 4), (5, 4), (6, 4)] {
-//!     nodes[layout.index(col, row).unwrap()] = GridNode::tracked(Point::from_f32(-2.0, 3.0));
-//! }
-//! let camera = DominantMotion::fit(&layout, &nodes, &FitParams::default()).unwrap().motion;
-//!
-//! let detector = MotionDetector::new(MotionParams::default()).unwrap();
-//! let mut mask = [0u32; mask_words(96, 64, 8)];
-//! let mut scratch = [0u32; motion_scratch_len(96, 64, 8)];
-//! let mut boxes = [MotionBox::default(); 4];
-//! let found = detector
-//!     .detect(&layout, &nodes, &camera, &mut mask, &mut scratch, &mut boxes)
-//!     .unwrap();
-//! assert_eq!(found.boxes, 1);
-//! // The block's cells, inset by 4 px on every side.
-//! assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h), (36, 28, 16, 8));
-//! ```
+//! The motion mask and moving-object boxes: [`MotionDetector`].
 
 use super::grid::{grid_len, GridLayout, GridNode, NodeStatus};
-use super::mask::{close, count, mask_words, open, set, words_for, Structure};
+use super::mask::{
+    mask_close, mask_count, mask_open, mask_set, mask_words, words_for, MaskStructure,
+};
 use super::regions::{find_boxes, BoxRules, MotionBox};
 use super::DenseError;
 use crate::ego::Homography;
 
 /// The flow the camera's own motion gives each pixel.
 ///
-/// Implemented by [`DominantMotion`](super::dominant::DominantMotion), fitted to the grid, and
+/// [`CameraMotion::flow_at`] is a displacement, not a position: the static scene at (`x`, `y`)
+/// in the previous frame is at (`x + dx`, `y + dy`) in the next. Positions are what
+/// [`Homography::apply`], [`Camera::predict`](crate::ego::Camera::predict) and the tracker's
+/// `predict` give.
+///
+/// Implemented by [`DominantMotion`](super::DominantMotion), fitted to the grid, and
 /// by [`Homography`], such as the ego-motion fitted to the tracks; implement it for another
 /// model (a gyro-predicted rotation) to use that model for the mask instead.
 ///
 /// ```
-/// use kestrel::dense::motion::CameraMotion;
+/// use kestrel::dense::CameraMotion;
 /// struct Pan(f32);
 /// impl CameraMotion for Pan {
-///     fn predict(&self, _x: f32, _y: f32) -> (f32, f32) {
+///     fn flow_at(&self, _x: f32, _y: f32) -> (f32, f32) {
 ///         (self.0, 0.0)
 ///     }
 /// }
-/// assert_eq!(Pan(1.5).predict(10.0, 20.0), (1.5, 0.0));
+/// assert_eq!(Pan(1.5).flow_at(10.0, 20.0), (1.5, 0.0));
 /// ```
 pub trait CameraMotion {
-    /// The flow, px, of the static scene at pixel (`x`, `y`) of the previous frame.
-    fn predict(&self, x: f32, y: f32) -> (f32, f32);
+    /// The flow `(dx, dy)`, px, of the static scene at pixel (`x`, `y`) of the previous frame:
+    /// how far that pixel moves to the next frame.
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32);
 }
 
 /// The flow a homography of the camera's motion (previous frame to next) gives each pixel.
 /// A pixel it cannot map (behind the camera: not the case of a fitted frame-to-frame model)
-/// is predicted still.
+/// gets a zero flow: it is taken as still.
 ///
 /// ```
-/// use kestrel::dense::motion::CameraMotion;
+/// use kestrel::dense::CameraMotion;
 /// use kestrel::ego::Homography;
 /// let pan = Homography::translation(1.5, -0.5).unwrap();
-/// assert_eq!(pan.predict(10.0, 20.0), (1.5, -0.5));
+/// // The homography maps a pixel to its position; its flow is the difference.
+/// assert_eq!(pan.apply((10.0, 20.0)), Some((11.5, 19.5)));
+/// assert_eq!(pan.flow_at(10.0, 20.0), (1.5, -0.5));
 /// ```
 impl CameraMotion for Homography {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
         self.apply((x, y))
             .map_or((0.0, 0.0), |(u, v)| (u - x, v - y))
     }
@@ -86,7 +58,7 @@ impl CameraMotion for Homography {
 /// and the region search, and a flood-fill stack of one word per node.
 ///
 /// ```
-/// use kestrel::dense::motion::motion_scratch_len;
+/// use kestrel::dense::motion_scratch_len;
 /// static mut SCRATCH: [u32; motion_scratch_len(160, 120, 8)] = [0; motion_scratch_len(160, 120, 8)];
 /// assert_eq!(motion_scratch_len(160, 120, 8), 10 + 300);
 /// ```
@@ -97,9 +69,9 @@ pub const fn motion_scratch_len(width: usize, height: usize, cell: usize) -> usi
 /// Motion-detection parameters.
 ///
 /// ```
-/// use kestrel::dense::dominant::DominantMotion;
-/// use kestrel::dense::grid::{GridLayout, GridNode, NodeStatus};
-/// use kestrel::dense::motion::{MotionDetector, MotionParams};
+/// use kestrel::dense::{
+///     DominantMotion, GridLayout, GridNode, MotionDetector, MotionParams, NodeStatus,
+/// };
 /// use kestrel::Point;
 ///
 /// // A still camera: one node moves 0.5 px, another 1.5 px, and a filled one 1.5 px.
@@ -133,11 +105,11 @@ pub struct MotionParams {
     /// Closing of the raw mask; `None` (the default) skips it. With 9 px windows on an 8 px
     /// grid the raw mask already overhangs each object by about a node, so a 3 x 3 closing
     /// merges objects less than about three cells apart.
-    pub close: Option<Structure>,
+    pub close: Option<MaskStructure>,
     /// Opening after the closing; `None` (the default) skips it: a 3 x 3 opening removes every
     /// region narrower than three nodes, which on an 8 px grid is every object under about
     /// 24 px. [`BoxRules::min_nodes`] removes specks instead.
-    pub open: Option<Structure>,
+    pub open: Option<MaskStructure>,
     /// Which regions give boxes, and how.
     pub boxes: BoxRules,
 }
@@ -166,7 +138,45 @@ pub struct MotionSummary {
     pub boxes: usize,
 }
 
-/// A validated motion detector.
+/// The motion mask and moving-object boxes: a validated motion detector.
+///
+/// A node moves on its own when its flow differs from the flow the camera gives it by more
+/// than a threshold ([`MotionParams::threshold`]). The camera's flow comes from a
+/// [`CameraMotion`]: for a still camera [`DominantMotion::ZERO`] (the test is then the flow's
+/// magnitude), for a moving one the [`DominantMotion`] fitted to the same grid, or any better
+/// model such as a homography from the ego-motion estimator. The raw mask is closed and opened
+/// on the grid ([`mask_close`], [`mask_open`]), and its connected regions of at least a minimum
+/// size become boxes ([`find_boxes`]).
+///
+/// [`DominantMotion`]: super::DominantMotion
+/// [`DominantMotion::ZERO`]: super::DominantMotion::ZERO
+///
+/// ```
+/// use kestrel::dense::{
+///     grid_len, mask_words, motion_scratch_len, DominantFitParams, DominantMotion, GridLayout,
+///     GridNode, MotionBox, MotionDetector, MotionParams,
+/// };
+/// use kestrel::Point;
+///
+/// // The camera pans 2 px left; a 3 x 2 block of nodes moves 3 px down besides.
+/// let layout = GridLayout::new(96, 64, 8).unwrap();
+/// let mut nodes = [GridNode::tracked(Point::from_f32(-2.0, 0.0)); grid_len(96, 64, 8)];
+/// for (col, row) in [(4, 3), (5, 3), (6, 3), (4, 4), (5, 4), (6, 4)] {
+///     nodes[layout.index(col, row).unwrap()] = GridNode::tracked(Point::from_f32(-2.0, 3.0));
+/// }
+/// let camera = DominantMotion::fit(&layout, &nodes, &DominantFitParams::default()).unwrap().motion;
+///
+/// let detector = MotionDetector::new(MotionParams::default()).unwrap();
+/// let mut mask = [0u32; mask_words(96, 64, 8)];
+/// let mut scratch = [0u32; motion_scratch_len(96, 64, 8)];
+/// let mut boxes = [MotionBox::default(); 4];
+/// let found = detector
+///     .detect(&layout, &nodes, &camera, &mut mask, &mut scratch, &mut boxes)
+///     .unwrap();
+/// assert_eq!(found.boxes, 1);
+/// // The block's cells, inset by 4 px on every side.
+/// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h), (36, 28, 16, 8));
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct MotionDetector {
     params: MotionParams,
@@ -176,8 +186,7 @@ impl MotionDetector {
     /// Validates `params`.
     ///
     /// ```
-    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
-    /// use kestrel::dense::DenseError;
+    /// use kestrel::dense::{DenseError, MotionDetector, MotionParams};
     /// let bad = MotionParams { threshold: -1.0, ..MotionParams::default() };
     /// assert_eq!(MotionDetector::new(bad).unwrap_err(), DenseError::BadThreshold);
     /// ```
@@ -191,7 +200,7 @@ impl MotionDetector {
     /// The parameters this detector was built with.
     ///
     /// ```
-    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
+    /// use kestrel::dense::{MotionDetector, MotionParams};
     /// let params = MotionParams { threshold: 1.2, include_filled: true, ..MotionParams::default() };
     /// let detector = MotionDetector::new(params).unwrap();
     /// assert_eq!(*detector.params(), params);
@@ -204,9 +213,7 @@ impl MotionDetector {
     /// number of moving nodes.
     ///
     /// ```
-    /// use kestrel::dense::dominant::DominantMotion;
-    /// use kestrel::dense::grid::{GridLayout, GridNode};
-    /// use kestrel::dense::motion::{MotionDetector, MotionParams};
+    /// use kestrel::dense::{DominantMotion, GridLayout, GridNode, MotionDetector, MotionParams};
     /// use kestrel::Point;
     /// let layout = GridLayout::new(16, 8, 8).unwrap();
     /// let nodes = [GridNode::tracked(Point::from_f32(0.5, 0.0)), GridNode::tracked(Point::from_f32(0.0, 1.5))];
@@ -232,7 +239,7 @@ impl MotionDetector {
         let mut moving = 0usize;
         for (index, node) in nodes.iter().take(layout.len()).enumerate() {
             let moves = self.counts(node) && self.residual_sq(layout, index, node, camera) > limit;
-            set(mask, index, moves);
+            mask_set(mask, index, moves);
             moving = moving.saturating_add(usize::from(moves));
         }
         Ok(moving)
@@ -240,7 +247,7 @@ impl MotionDetector {
 
     /// Marks the moving nodes, cleans the mask, and writes the boxes of its regions into
     /// `boxes`, largest first. `mask` ([`mask_words`] words) holds the cleaned mask afterwards;
-    /// `scratch` is [`motion_scratch_len`] words. See the module example.
+    /// `scratch` is [`motion_scratch_len`] words. See [`MotionDetector`]'s example.
     ///
     /// No box is reported, and the mask is cleared, when the nodes cannot tell an object from
     /// the camera: when fewer than a quarter of the grid's nodes take part (a dark, blown-out
@@ -273,14 +280,14 @@ impl MotionDetector {
             return Ok(MotionSummary::default());
         }
         if let Some(structure) = self.params.close {
-            close(layout, mask, temp, structure)?;
+            mask_close(layout, mask, temp, structure)?;
         }
         if let Some(structure) = self.params.open {
-            open(layout, mask, temp, structure)?;
+            mask_open(layout, mask, temp, structure)?;
         }
         let found = find_boxes(layout, nodes, mask, temp, stack, &self.params.boxes, boxes)?;
         Ok(MotionSummary {
-            moving: count(mask, layout.len()),
+            moving: mask_count(mask, layout.len()),
             regions: found.regions,
             boxes: found.boxes,
         })
@@ -305,11 +312,11 @@ impl MotionDetector {
     ) -> f32 {
         let (col, row) = layout.node(index);
         let (x, y) = layout.centre(col, row);
-        let (cx, cy) = camera.predict(x as f32, y as f32);
+        let (cx, cy) = camera.flow_at(x as f32, y as f32);
         let (dx, dy) = node.flow.to_f32();
         let (rx, ry) = (dx - cx, dy - cy);
         let r2 = rx * rx + ry * ry;
-        // A camera model that predicts NaN says nothing: the node does not move.
+        // A camera model whose flow is NaN says nothing: the node does not move.
         if r2.is_nan() {
             0.0
         } else {
@@ -447,7 +454,7 @@ mod tests {
     fn a_nan_camera_marks_nothing() {
         struct Broken;
         impl CameraMotion for Broken {
-            fn predict(&self, _: f32, _: f32) -> (f32, f32) {
+            fn flow_at(&self, _: f32, _: f32) -> (f32, f32) {
                 (f32::NAN, 0.0)
             }
         }

@@ -1,6 +1,6 @@
 //! The motion detector as one type: [`MovingObjects`].
 
-use super::dominant::{DominantFit, DominantMotion, FitParams};
+use super::dominant::{DominantFit, DominantFitParams, DominantMotion};
 use super::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use super::motion::{CameraMotion, MotionDetector, MotionParams, MotionSummary};
 use super::outline::{OutlineParams, Outliner};
@@ -14,8 +14,7 @@ use crate::q16::Point;
 /// How a [`MovingObjects`] is made.
 ///
 /// ```
-/// use kestrel::dense::grid::DenseParams;
-/// use kestrel::dense::MovingObjectsConfig;
+/// use kestrel::dense::{DenseParams, MovingObjectsConfig};
 /// let config = MovingObjectsConfig::default();
 /// // The grid keeps only the windows it can trust for motion, every region is outlined
 /// // (even a node alone may be a small object's), and a box needs two frame pairs.
@@ -30,7 +29,7 @@ pub struct MovingObjectsConfig {
     /// The grid's flow.
     pub grid: DenseParams,
     /// The grid's own fit of the camera's motion, used when the caller gives none.
-    pub fit: FitParams,
+    pub fit: DominantFitParams,
     /// The motion mask, its morphology and its regions.
     pub motion: MotionParams,
     /// Each region outlined at pixel level; `None` reports the regions' own boxes.
@@ -64,7 +63,7 @@ impl Default for MovingObjectsConfig {
     fn default() -> Self {
         Self {
             grid: DenseParams::for_motion(),
-            fit: FitParams::default(),
+            fit: DominantFitParams::default(),
             motion: MotionParams {
                 boxes: BoxRules {
                     min_nodes: 1,
@@ -85,10 +84,7 @@ impl Default for MovingObjectsConfig {
 /// example.
 ///
 /// ```
-/// use kestrel::dense::grid::{grid_len, GridNode};
-/// use kestrel::dense::mask::mask_words;
-/// use kestrel::dense::motion::motion_scratch_len;
-/// use kestrel::dense::MovingObjectsBuffers;
+/// use kestrel::dense::{grid_len, mask_words, motion_scratch_len, GridNode, MovingObjectsBuffers};
 /// use kestrel::lk::scratch_len;
 /// // 160 x 120 frames, 8 px cells, 9 px windows, no outline (firmware keeps them in statics).
 /// let mut nodes = [GridNode::EMPTY; grid_len(160, 120, 8)];
@@ -106,16 +102,20 @@ impl Default for MovingObjectsConfig {
 /// ```
 #[derive(Debug)]
 pub struct MovingObjectsBuffers<'a> {
-    /// The grid's nodes, row by row: [`super::grid::grid_len`]. After a pair, its flow.
+    /// The grid's nodes, row by row: [`grid_len`](super::grid_len). After a pair, its flow.
     pub nodes: &'a mut [GridNode],
     /// LK's scratch: [`crate::lk::scratch_len`] of the grid's window.
     pub lk_scratch: &'a mut [i16],
-    /// The motion mask: [`super::mask::mask_words`]. After a pair, its cleaned mask.
+    /// The motion mask: [`mask_words`](super::mask_words). After a pair, its cleaned mask.
     pub mask: &'a mut [u32],
-    /// The mask's morphology and region search: [`super::motion::motion_scratch_len`].
+    /// The mask's morphology and region search: [`motion_scratch_len`].
+    ///
+    /// [`motion_scratch_len`]: super::motion_scratch_len
     pub motion_scratch: &'a mut [u32],
-    /// The outline's: [`super::outline::outline_scratch_len`] of [`OutlineParams::side`] and
+    /// The outline's: [`outline_scratch_len`] of [`OutlineParams::side`] and
     /// [`OutlineParams::reach`]; may be empty without an outline.
+    ///
+    /// [`outline_scratch_len`]: super::outline_scratch_len
     pub outline_scratch: &'a mut [u16],
 }
 
@@ -171,11 +171,10 @@ pub enum ObjectsStage {
 /// and `2 * N` boxes, so a `static` of it is its whole footprint.
 ///
 /// ```
-/// use kestrel::dense::grid::{grid_len, GridNode};
-/// use kestrel::dense::mask::mask_words;
-/// use kestrel::dense::motion::motion_scratch_len;
-/// use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
-/// use kestrel::dense::{MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
+/// use kestrel::dense::{
+///     grid_len, mask_words, motion_scratch_len, outline_scratch_len, GridNode, MovingObjects,
+///     MovingObjectsBuffers, MovingObjectsConfig, OutlineParams,
+/// };
 /// use kestrel::frame::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
@@ -239,7 +238,7 @@ pub enum ObjectsStage {
 /// assert!((dx - 3.0).abs() < 0.2 && dy.abs() < 0.2);
 /// // The camera stood still, as the grid's own fit says.
 /// let fit = step.fit.unwrap();
-/// let (cx, cy) = fit.motion.predict(48.0, 32.0);
+/// let (cx, cy) = fit.motion.flow_at(48.0, 32.0);
 /// assert!(cx.abs() < 0.05 && cy.abs() < 0.05);
 /// ```
 ///
@@ -276,14 +275,13 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// A pipeline for `width` x `height` frames, its settings checked.
     ///
     /// ```
-    /// use kestrel::dense::grid::DenseParams;
-    /// use kestrel::dense::{DenseError, MovingObjects, MovingObjectsConfig};
+    /// use kestrel::dense::{DenseError, DenseParams, MovingObjects, MovingObjectsConfig};
     /// let config = MovingObjectsConfig::default();
     /// let objects = MovingObjects::<16>::new(config, 160, 120).unwrap();
     /// assert_eq!((objects.layout().cols(), objects.layout().rows()), (20, 15));
     /// let zero = MovingObjectsConfig { grid: DenseParams { cell: 0, ..config.grid }, ..config };
     /// assert_eq!(MovingObjects::<16>::new(zero, 160, 120).err(), Some(DenseError::ZeroCell));
-    /// let bad_fit = MovingObjectsConfig { fit: kestrel::dense::dominant::FitParams {
+    /// let bad_fit = MovingObjectsConfig { fit: kestrel::dense::DominantFitParams {
     ///     inlier_radius: f32::NAN, ..config.fit }, ..config };
     /// assert_eq!(MovingObjects::<16>::new(bad_fit, 160, 120).err(), Some(DenseError::BadThreshold));
     /// ```
@@ -329,9 +327,10 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// persistence as it was.
     ///
     /// ```
-    /// # use kestrel::dense::grid::{grid_len, GridNode};
-    /// # use kestrel::dense::{mask::mask_words, motion::motion_scratch_len};
-    /// # use kestrel::dense::{DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
+    /// # use kestrel::dense::{
+    /// #     grid_len, mask_words, motion_scratch_len, DenseError, GridNode, MovingObjects,
+    /// #     MovingObjectsBuffers, MovingObjectsConfig,
+    /// # };
     /// # use kestrel::frame::ImageView;
     /// # use kestrel::lk::scratch_len;
     /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
@@ -387,10 +386,10 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// firmware reads a cycle counter there to time the grid and the boxes apart.
     ///
     /// ```
-    /// # use kestrel::dense::grid::{grid_len, GridNode};
-    /// # use kestrel::dense::{mask::mask_words, motion::motion_scratch_len};
-    /// # use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
-    /// # use kestrel::dense::{MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage};
+    /// # use kestrel::dense::{
+    /// #     grid_len, mask_words, motion_scratch_len, outline_scratch_len, GridNode,
+    /// #     MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, OutlineParams,
+    /// # };
     /// # use kestrel::frame::ImageView;
     /// # use kestrel::lk::scratch_len;
     /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};

@@ -1,45 +1,4 @@
-//! Boxes that persist: a region is reported once it has moved in consecutive frame pairs.
-//!
-//! A wrong LK estimate, a patch that clipped at 255 in one frame or a burst of noise moves a
-//! few nodes in one frame pair; an object moves its nodes in every pair. [`BoxPersistence`]
-//! remembers each pair's boxes, moved by their own flow into the frame the next pair starts
-//! from, and reports a box of the next pair only when it overlaps one of them: when its
-//! region has moved in [`BoxPersistence::min_pairs`] pairs in a row. An object is then
-//! reported from its second pair on (with two), and a region that moves in one pair alone
-//! never is. Two rules keep runs honest at the edges of time and of the frame:
-//!
-//! - a reported region that the mask misses in one pair keeps its run for the next pair, where
-//!   it is expected one more step of its flow further on: one miss costs one frame, not the
-//!   frames of a new run;
-//! - a region that lies in the grid's outer ring of nodes alone (first or last column or row)
-//!   needs one pair more to start a run: there the camera carries part of a node's window
-//!   out of the next frame, and the wrong flow that gives lasts as long as the camera's
-//!   motion.
-//!
-//! With two pairs, on 116 frame pairs of a camera panning, rolling and zooming over still
-//! ground at 320 x 240 (`tests/dense_motion.rs`), boxes fell from 34 to 0.
-//!
-//! The state is a fixed number of boxes (`N`, the most boxes a pair gives), with no heap.
-//!
-//! ```
-//! use kestrel::dense::grid::GridLayout;
-//! use kestrel::dense::persist::BoxPersistence;
-//! use kestrel::dense::regions::MotionBox;
-//! use kestrel::Point;
-//!
-//! let layout = GridLayout::new(160, 120, 8).unwrap();
-//! let object = |x| MotionBox { x, y: 40, w: 16, h: 16, nodes: 4, mean_flow: Point::from_f32(3.0, 0.0) };
-//! let speck = MotionBox { x: 100, y: 8, w: 8, h: 8, nodes: 3, mean_flow: Point::from_f32(0.0, 2.0) };
-//! let mut persistence = BoxPersistence::<8>::new(2);
-//!
-//! // First pair: nothing has moved before, nothing is reported.
-//! let mut boxes = [object(20), speck];
-//! assert_eq!(persistence.confirm(&layout, &mut boxes, 2), 0);
-//! // Second pair: the object moved on by 3 px and is reported; the speck is gone.
-//! let mut boxes = [object(23)];
-//! assert_eq!(persistence.confirm(&layout, &mut boxes, 1), 1);
-//! assert_eq!(boxes[0].x, 23);
-//! ```
+//! Boxes that persist: [`BoxPersistence`].
 
 use heapless::Vec;
 
@@ -47,7 +6,47 @@ use super::grid::GridLayout;
 use super::regions::MotionBox;
 use crate::q16::Q16;
 
-/// The boxes of the last frame pair and how many pairs in a row each region has moved.
+/// Boxes that persist: a region is reported once it has moved in consecutive frame pairs.
+///
+/// A wrong LK estimate, a patch that clipped at 255 in one frame or a burst of noise moves a
+/// few nodes in one frame pair; an object moves its nodes in every pair. A `BoxPersistence`
+/// remembers each pair's boxes, moved by their own flow into the frame the next pair starts
+/// from, and reports a box of the next pair only when it overlaps one of them: when its
+/// region has moved in [`BoxPersistence::min_pairs`] pairs in a row. An object is then
+/// reported from its second pair on (with two), and a region that moves in one pair alone
+/// never is. Two rules keep runs honest at the edges of time and of the frame:
+///
+/// - a reported region that the mask misses in one pair keeps its run for the next pair, where
+///   it is expected one more step of its flow further on: one miss costs one frame, not the
+///   frames of a new run;
+/// - a region that lies in the grid's outer ring of nodes alone (first or last column or row)
+///   needs one pair more to start a run: there the camera carries part of a node's window
+///   out of the next frame, and the wrong flow that gives lasts as long as the camera's
+///   motion.
+///
+/// With two pairs, on 116 frame pairs of a camera panning, rolling and zooming over still
+/// ground at 320 x 240 (`tests/dense_motion.rs`), boxes fell from 34 to 0.
+///
+/// The state is a fixed number of boxes (`N`, the most boxes a pair gives), with no heap: the
+/// boxes of the last frame pair and how many pairs in a row each region has moved.
+///
+/// ```
+/// use kestrel::dense::{BoxPersistence, GridLayout, MotionBox};
+/// use kestrel::Point;
+///
+/// let layout = GridLayout::new(160, 120, 8).unwrap();
+/// let object = |x| MotionBox { x, y: 40, w: 16, h: 16, nodes: 4, mean_flow: Point::from_f32(3.0, 0.0) };
+/// let speck = MotionBox { x: 100, y: 8, w: 8, h: 8, nodes: 3, mean_flow: Point::from_f32(0.0, 2.0) };
+/// let mut persistence = BoxPersistence::<8>::new(2);
+///
+/// // First pair: nothing has moved before, nothing is reported.
+/// let mut boxes = [object(20), speck];
+/// assert_eq!(persistence.confirm(&layout, &mut boxes, 2), 0);
+/// // Second pair: the object moved on by 3 px and is reported; the speck is gone.
+/// let mut boxes = [object(23)];
+/// assert_eq!(persistence.confirm(&layout, &mut boxes, 1), 1);
+/// assert_eq!(boxes[0].x, 23);
+/// ```
 #[derive(Debug, Clone)]
 pub struct BoxPersistence<const N: usize> {
     min_pairs: u8,
@@ -84,7 +83,7 @@ impl<const N: usize> BoxPersistence<N> {
     /// report every box (no persistence asked).
     ///
     /// ```
-    /// use kestrel::dense::persist::BoxPersistence;
+    /// use kestrel::dense::BoxPersistence;
     /// assert_eq!(BoxPersistence::<16>::new(3).min_pairs(), 3);
     /// ```
     pub const fn new(min_pairs: u8) -> Self {
@@ -102,9 +101,7 @@ impl<const N: usize> BoxPersistence<N> {
     /// Forgets every box (a new sequence, or a frame that could not be processed).
     ///
     /// ```
-    /// use kestrel::dense::grid::GridLayout;
-    /// use kestrel::dense::persist::BoxPersistence;
-    /// use kestrel::dense::regions::MotionBox;
+    /// use kestrel::dense::{BoxPersistence, GridLayout, MotionBox};
     /// let layout = GridLayout::new(64, 64, 8).unwrap();
     /// let b = MotionBox { x: 16, y: 16, w: 8, h: 8, ..MotionBox::default() };
     /// let mut persistence = BoxPersistence::<4>::new(2);
@@ -119,14 +116,12 @@ impl<const N: usize> BoxPersistence<N> {
     /// Appends to the first `count` of `boxes` (a pair's candidates, before
     /// [`BoxPersistence::confirm`]) the boxes reported for the pair before, where their flow
     /// takes them in this pair's earlier frame, that overlap none of them; returns the new
-    /// count. Looked at again by a pixel-level check ([`super::outline`]), they keep an object
+    /// count. Looked at again by a pixel-level check ([`Outliner`](super::Outliner)), they keep an object
     /// that slows to the camera's motion, where the grid's mask loses it, for as long as its
     /// pixels still tell it from the ground.
     ///
     /// ```
-    /// use kestrel::dense::grid::GridLayout;
-    /// use kestrel::dense::persist::BoxPersistence;
-    /// use kestrel::dense::regions::MotionBox;
+    /// use kestrel::dense::{BoxPersistence, GridLayout, MotionBox};
     /// use kestrel::Point;
     /// let layout = GridLayout::new(64, 64, 8).unwrap();
     /// let b = MotionBox { x: 16, y: 16, w: 8, h: 8, nodes: 2, mean_flow: Point::from_f32(2.0, 0.0) };

@@ -1,23 +1,17 @@
-//! Connected regions of a node mask, as bounding boxes in pixels.
+//! Connected regions of a node mask, as bounding boxes in pixels: [`find_boxes`].
 //!
-//! Regions are 8-connected (a small object moving diagonally across a coarse grid often touches
-//! its next node only at a corner). Each is found by a flood fill whose stack is a caller-owned
-//! slice of one `u32` per node: a node is pushed at most once, since it leaves the `unvisited`
-//! set as it is pushed.
-//!
-//! A region's box is its nodes' cells, clipped to the frame and inset on every side: a node
-//! whose LK window reaches into a moving object picks up the object's motion, so the cells of a
-//! region overhang the object by about half a window.
+//! Each region is found by a flood fill whose stack is a caller-owned slice of one `u32` per
+//! node: a node is pushed at most once, since it leaves the `unvisited` set as it is pushed.
 
 use super::grid::{GridLayout, GridNode, NEIGHBOURS};
-use super::mask::{contains, set, words_for};
+use super::mask::{mask_contains, mask_set, words_for};
 use super::DenseError;
 use crate::q16::{Point, Q16};
 
 /// A moving region: the pixels its nodes' cells cover in the previous frame, and its flow.
 ///
 /// ```
-/// use kestrel::dense::regions::MotionBox;
+/// use kestrel::dense::MotionBox;
 /// use kestrel::Point;
 /// let b = MotionBox { x: 16, y: 8, w: 24, h: 16, nodes: 6, mean_flow: Point::from_f32(2.6, -1.0) };
 /// assert_eq!(b.area(), 384);
@@ -46,7 +40,7 @@ impl MotionBox {
     /// Area in pixels.
     ///
     /// ```
-    /// # use kestrel::dense::regions::MotionBox;
+    /// # use kestrel::dense::MotionBox;
     /// assert_eq!(MotionBox { w: 3, h: 5, ..MotionBox::default() }.area(), 15);
     /// ```
     pub fn area(&self) -> u32 {
@@ -57,7 +51,7 @@ impl MotionBox {
     /// Pixels this box shares with `other`.
     ///
     /// ```
-    /// # use kestrel::dense::regions::MotionBox;
+    /// # use kestrel::dense::MotionBox;
     /// let a = MotionBox { x: 0, y: 0, w: 8, h: 8, ..MotionBox::default() };
     /// let b = MotionBox { x: 4, y: 6, w: 8, h: 8, ..MotionBox::default() };
     /// assert_eq!(a.overlap_area(&b), 8);
@@ -80,7 +74,7 @@ impl MotionBox {
     /// `height` frame: where the region is in the next frame.
     ///
     /// ```
-    /// # use kestrel::dense::regions::MotionBox;
+    /// # use kestrel::dense::MotionBox;
     /// # use kestrel::Point;
     /// let b = MotionBox { x: 0, y: 0, w: 8, h: 8, nodes: 1, mean_flow: Point::from_f32(-3.0, 0.0) };
     /// let moved = b.in_next_frame(64, 64);
@@ -128,8 +122,7 @@ pub struct RegionCount {
 /// Which regions give boxes, and how boxes are drawn around them.
 ///
 /// ```
-/// use kestrel::dense::grid::{GridLayout, GridNode};
-/// use kestrel::dense::regions::{find_boxes, BoxRules, MotionBox};
+/// use kestrel::dense::{find_boxes, BoxRules, GridLayout, GridNode, MotionBox};
 /// use kestrel::Point;
 ///
 /// // A 4 x 4 grid of 8 px cells: a region of two nodes side by side, at (1, 1) and (2, 1).
@@ -174,11 +167,16 @@ impl Default for BoxRules {
 /// their boxes into `boxes`, largest first (equal sizes in the raster order of their first
 /// node). When there are more regions than boxes, the largest are kept.
 ///
+/// Regions are 8-connected (a small object moving diagonally across a coarse grid often
+/// touches its next node only at a corner). A region's box is its nodes' cells, clipped to the
+/// frame and inset on every side ([`BoxRules::inset`]): a node whose LK window reaches into a
+/// moving object picks up the object's motion, so the cells of a region overhang the object by
+/// about half a window.
+///
 /// `unvisited` is a mask's worth of scratch, `stack` one `u32` per node ([`GridLayout::len`]).
 ///
 /// ```
-/// use kestrel::dense::grid::{GridLayout, GridNode};
-/// use kestrel::dense::regions::{find_boxes, BoxRules, MotionBox};
+/// use kestrel::dense::{find_boxes, BoxRules, GridLayout, GridNode, MotionBox};
 /// use kestrel::Point;
 ///
 /// // A 4 x 4 grid of 8 px cells: an L of three nodes, and one lone node.
@@ -212,7 +210,7 @@ pub fn find_boxes(
     }
     let mut found = RegionCount::default();
     for seed in 0..layout.len() {
-        if !contains(unvisited, seed) {
+        if !mask_contains(unvisited, seed) {
             continue;
         }
         let region = flood(layout, nodes, unvisited, stack, seed);
@@ -318,7 +316,7 @@ fn flood(
         region.add(col, row, nodes.get(index));
         for offset in NEIGHBOURS {
             let next = layout.neighbour(index, offset);
-            if let Some(next) = next.filter(|&n| contains(unvisited, n)) {
+            if let Some(next) = next.filter(|&n| mask_contains(unvisited, n)) {
                 push(unvisited, stack, &mut top, next);
             }
         }
@@ -329,7 +327,7 @@ fn flood(
 /// Pushes `index` and removes it from `unvisited`, so no node is pushed twice and the stack
 /// never needs more than one slot per node.
 fn push(unvisited: &mut [u32], stack: &mut [u32], top: &mut usize, index: usize) {
-    set(unvisited, index, false);
+    mask_set(unvisited, index, false);
     if let Some(slot) = stack.get_mut(*top) {
         // Node indices are below the grid's length, itself far below 2^32 for 4096 px frames.
         *slot = u32::try_from(index).unwrap_or(u32::MAX);

@@ -1,23 +1,4 @@
-//! Measured nodes averaged with the neighbours that move alike.
-//!
-//! LK measures each node from its own window alone: 81 pixels for the default 9 x 9, so sensor
-//! noise of 1.5 grey levels moves a node by about a tenth of a pixel (tests/dense_grid.rs
-//! measures a median of 0.09 px without the smoothing). Neighbouring nodes on the
-//! same surface see independent pixels of the same smooth motion, so a fit over the 3 x 3
-//! neighbourhood averages up to nine windows' noise. The fit is affine (flow = a + b·col +
-//! c·row, per component) so that rotation and zoom, which make the flow vary by a few tenths of a
-//! pixel from node to node, do not bias it; its value at the node is the smoothed flow. Fewer
-//! than [`MIN_AFFINE`] members, or members on one line, take their mean instead.
-//!
-//! Only measured ([`NodeStatus::Tracked`]) nodes take part, and only neighbours whose flow is
-//! within the gate of the node's own in both components: a neighbour beyond it sees another
-//! surface (an object's edge, a mismeasured window), so an object moving more than the gate
-//! against its background keeps its own flow, even on a single node.
-//!
-//! The smoothing runs in place, row by row; `rows` keeps the measured flows of the row above
-//! and of the current one while they are replaced. A second pass over the smoothed nodes
-//! reaches a node further ([`DEFAULT_PASSES`]): a wider average where the surface goes on,
-//! still bounded by the gate where it ends.
+//! Measured nodes averaged with the neighbours that move alike: [`smooth_tracked`].
 
 use super::grid::{grid_side, GridLayout, GridNode, NodeStatus, NEIGHBOURS};
 use super::DenseError;
@@ -27,7 +8,7 @@ use crate::q16::{Point, Q16};
 /// nodes.
 ///
 /// ```
-/// use kestrel::dense::smooth::smooth_scratch_len;
+/// use kestrel::dense::smooth_scratch_len;
 /// assert_eq!(smooth_scratch_len(160, 8), 40);
 /// ```
 pub const fn smooth_scratch_len(width: usize, cell: usize) -> usize {
@@ -36,33 +17,54 @@ pub const fn smooth_scratch_len(width: usize, cell: usize) -> usize {
 
 /// The gate host-sim uses, px: about five times a node's measurement noise with sensor noise of
 /// 1.5 grey levels. Per component, so a neighbour let in differs by at most 0.71 px, under the
-/// 0.8 px at which the motion mask calls a node moving
-/// ([`super::motion::MotionParams::threshold`]): a fit never averages in a neighbour the mask
-/// would set apart.
-pub const DEFAULT_GATE: f32 = 0.5;
+/// 0.8 px at which the motion mask calls a node moving ([`MotionParams::threshold`]): a fit
+/// never averages in a neighbour the mask would set apart.
+///
+/// [`MotionParams::threshold`]: super::MotionParams::threshold
+pub const SMOOTH_GATE: f32 = 0.5;
 
 /// The passes host-sim runs: the second fit, over nodes already smoothed, reaches the 5 x 5
 /// neighbourhood (40 px at 8 px cells), which takes a further sixth to a fifth off the median
 /// error on textured scenes and photographs while the affine fit still follows rotation and
 /// zoom exactly.
-pub const DEFAULT_PASSES: u8 = 2;
+pub const SMOOTH_PASSES: u8 = 2;
 
 /// Members (the node included) an affine fit needs; with fewer the node takes their mean.
 /// Three would fit the plane exactly through noisy points, extrapolating their noise.
-pub const MIN_AFFINE: usize = 4;
+pub const SMOOTH_MIN_AFFINE: usize = 4;
 
-/// Replaces the flow of every measured node among the first [`GridLayout::len`] `nodes` by the
-/// affine fit of its 3 x 3 neighbourhood's measured flows within `gate` px of its own (module
-/// documentation), and returns how many nodes had a neighbour within the gate. Statuses and
-/// every other node are left alone. `rows` holds at least [`smooth_scratch_len`] points.
+/// Averages measured nodes with the neighbours that move alike: replaces the flow of every
+/// measured node among the first [`GridLayout::len`] `nodes` by the affine fit of its 3 x 3
+/// neighbourhood's measured flows within `gate` px of its own, and returns how many nodes had
+/// a neighbour within the gate. Statuses and every other node are left alone. `rows` holds at
+/// least [`smooth_scratch_len`] points.
+///
+/// LK measures each node from its own window alone: 81 pixels for the default 9 x 9, so
+/// sensor noise of 1.5 grey levels moves a node by about a tenth of a pixel
+/// (tests/dense_grid.rs measures a median of 0.09 px without the smoothing). Neighbouring
+/// nodes on the same surface see independent pixels of the same smooth motion, so a fit over
+/// the 3 x 3 neighbourhood averages up to nine windows' noise. The fit is affine (flow = a +
+/// b·col + c·row, per component) so that rotation and zoom, which make the flow vary by a few
+/// tenths of a pixel from node to node, do not bias it; its value at the node is the smoothed
+/// flow. Fewer than [`SMOOTH_MIN_AFFINE`] members, or members on one line, take their mean
+/// instead.
+///
+/// Only measured ([`NodeStatus::Tracked`]) nodes take part, and only neighbours whose flow is
+/// within the gate of the node's own in both components: a neighbour beyond it sees another
+/// surface (an object's edge, a mismeasured window), so an object moving more than the gate
+/// against its background keeps its own flow, even on a single node.
+///
+/// The smoothing runs in place, row by row; `rows` keeps the measured flows of the row above
+/// and of the current one while they are replaced. A second pass over the smoothed nodes
+/// reaches a node further ([`SMOOTH_PASSES`]): a wider average where the surface goes on,
+/// still bounded by the gate where it ends.
 ///
 /// Errors: [`DenseError::BadThreshold`] for a gate that is negative, NaN or beyond a Q16
 /// flow (32,768 px); [`DenseError::NodesTooShort`] and [`DenseError::SmoothScratchTooShort`]
 /// for short buffers. Nothing is changed then.
 ///
 /// ```
-/// use kestrel::dense::grid::{GridLayout, GridNode};
-/// use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
+/// use kestrel::dense::{smooth_scratch_len, smooth_tracked, GridLayout, GridNode};
 /// use kestrel::Point;
 ///
 /// // A 3 x 3 grid moving 2 px right, the centre measured 0.3 px off, a corner on an object.
@@ -249,7 +251,7 @@ impl FitSums {
         ];
         let det = self.n * adjugate[0] + self.u * adjugate[1] + self.v * adjugate[2];
         let solve = |sums: &[i64; 3]| {
-            if self.n >= MIN_AFFINE as i64 && det > 0 {
+            if self.n >= SMOOTH_MIN_AFFINE as i64 && det > 0 {
                 let num: i64 = adjugate.iter().zip(sums).map(|(a, s)| a * s).sum();
                 div_round(num, det)
             } else {
@@ -298,7 +300,7 @@ mod tests {
     fn an_affine_field_is_kept_exactly() {
         // Zoom and rotation: flow = (0.5 + 0.02·x - 0.01·y, -0.25 + 0.01·x + 0.02·y) at the
         // node centres, with holes that make the neighbourhoods lopsided (each node keeps at least
-        // MIN_AFFINE members off one line: the corners four, the edges five or six).
+        // SMOOTH_MIN_AFFINE members off one line: the corners four, the edges five or six).
         let layout = GridLayout::new(64, 48, 8).unwrap();
         let field = |i: usize| {
             let (c, r) = layout.centre(i % 8, i / 8);
@@ -310,7 +312,7 @@ mod tests {
             nodes[hole] = GridNode::invalid(NodeStatus::LowTexture);
         }
         let before = nodes;
-        for _ in 0..DEFAULT_PASSES {
+        for _ in 0..SMOOTH_PASSES {
             smooth(&layout, &mut nodes, 0.5);
         }
         for (a, b) in nodes.iter().zip(&before) {
@@ -394,8 +396,8 @@ mod tests {
         let layout = GridLayout::new(40, 40, 8).unwrap();
         let mut nodes = [node(0.0, 0.0); 25];
         nodes[12] = node(1.0, 0.0);
-        for _ in 0..DEFAULT_PASSES {
-            smooth(&layout, &mut nodes, DEFAULT_GATE);
+        for _ in 0..SMOOTH_PASSES {
+            smooth(&layout, &mut nodes, SMOOTH_GATE);
         }
         assert_eq!(nodes[12].flow.to_f32(), (1.0, 0.0));
         assert!(nodes

@@ -8,13 +8,11 @@
 
 use super::picture::{Change, Picture};
 use arbitrary::Arbitrary;
-use kestrel::dense::dominant::{DominantMotion, FitParams};
-use kestrel::dense::grid::{grid_len, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus};
-use kestrel::dense::mask::{mask_words, Structure};
-use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
-use kestrel::dense::regions::{BoxRules, MotionBox};
-use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked};
-use kestrel::dense::DenseError;
+use kestrel::dense::{
+    grid_len, mask_words, motion_scratch_len, smooth_scratch_len, smooth_tracked, BoxRules,
+    DenseError, DenseFlow, DenseParams, DominantFitParams, DominantMotion, GridLayout, GridNode,
+    MaskStructure, MotionBox, MotionDetector, MotionParams, NodeStatus,
+};
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
@@ -232,7 +230,7 @@ fn check_node(layout: &GridLayout, index: usize, node: &GridNode, passes: u8) {
 }
 
 fn check_dominant(layout: &GridLayout, nodes: &[GridNode], fit: (f32, f32, u8)) -> DominantMotion {
-    let params = FitParams {
+    let params = DominantFitParams {
         start_radius: fit.0,
         inlier_radius: fit.1,
         iterations: fit.2 % 16,
@@ -259,9 +257,9 @@ fn check_motion(
 ) {
     let structure = |square3: bool| {
         if square3 {
-            Structure::Square3
+            MaskStructure::Square3
         } else {
-            Structure::Square2
+            MaskStructure::Square2
         }
     };
     let params = MotionParams {

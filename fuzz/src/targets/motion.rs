@@ -13,14 +13,11 @@
 
 use super::picture::{Change, Frame, Picture};
 use arbitrary::Arbitrary;
-use kestrel::dense::dominant::{DominantMotion, FitParams};
-use kestrel::dense::grid::{DenseFlow, DenseParams, GridLayout, GridNode};
-use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::{motion_scratch_len, MotionDetector, MotionParams};
-use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
-use kestrel::dense::persist::BoxPersistence;
-use kestrel::dense::regions::{BoxRules, MotionBox};
-use kestrel::dense::DenseError;
+use kestrel::dense::{
+    mask_words, motion_scratch_len, outline_scratch_len, BoxPersistence, BoxRules, DenseError,
+    DenseFlow, DenseParams, DominantFitParams, DominantMotion, GridLayout, GridNode, MotionBox,
+    MotionDetector, MotionParams, OutlineParams, Outliner,
+};
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{level_size, pyramid_storage_len, Pyramid};
 
@@ -121,7 +118,7 @@ pub fn run(data: &[u8]) {
             min_gain: o.min_gain % 64,
             min_pixels: usize::from(o.min_pixels),
             refinements: usize::from(o.refinements % 4),
-            // 0 to 99: below MIN_SIDE is refused.
+            // 0 to 99: below OUTLINE_MIN_SIDE is refused.
             side: usize::from(o.side % 100),
             reach: usize::from(o.reach % 24),
         };
@@ -144,7 +141,7 @@ pub fn run(data: &[u8]) {
         dense,
         layout,
         detector,
-        fit: FitParams::default(),
+        fit: DominantFitParams::default(),
         outliner,
         persistence: BoxPersistence::new(input.persist_pairs % 4),
         nodes: vec![GridNode::EMPTY; layout.len()],
@@ -242,7 +239,7 @@ struct Pipeline {
     dense: DenseFlow,
     layout: GridLayout,
     detector: MotionDetector,
-    fit: FitParams,
+    fit: DominantFitParams,
     outliner: Option<(Outliner, usize)>,
     persistence: BoxPersistence<REMEMBERED>,
     nodes: Vec<GridNode>,

@@ -10,11 +10,9 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use kestrel::dense::grid::DenseParams;
-use kestrel::dense::mask::Structure;
-use kestrel::dense::motion::MotionParams;
-use kestrel::dense::outline::{OutlineParams, MAX_REACH};
-use kestrel::dense::regions::{BoxRules, MotionBox};
+use kestrel::dense::{
+    BoxRules, DenseParams, MaskStructure, MotionBox, MotionParams, OutlineParams, OUTLINE_MAX_REACH,
+};
 
 use super::dense::{refused, GridFlags};
 use super::{median, CommandError};
@@ -138,7 +136,7 @@ fn persist(text: &str) -> Result<u8, String> {
 }
 
 fn reach(text: &str) -> Result<usize, String> {
-    let range = |n| (0..=MAX_REACH as i64).contains(&n);
+    let range = |n| (0..=OUTLINE_MAX_REACH as i64).contains(&n);
     values::whole(text, range, "must be between 0 and 128").map(|n| n as usize)
 }
 
@@ -158,10 +156,10 @@ fn structure(text: &str) -> Result<u8, String> {
 }
 
 /// The square of side `n` (`--close`, `--open`), none for 0.
-fn square(n: u8) -> Option<Structure> {
+fn square(n: u8) -> Option<MaskStructure> {
     match n {
-        2 => Some(Structure::Square2),
-        3 => Some(Structure::Square3),
+        2 => Some(MaskStructure::Square2),
+        3 => Some(MaskStructure::Square3),
         _ => None,
     }
 }

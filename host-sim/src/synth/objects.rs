@@ -31,7 +31,7 @@ use super::scene::{Scene, SceneSpec};
 use super::sequence::CameraPath;
 use super::texture::value_noise;
 use crate::Frame;
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::MotionBox;
 
 /// An axis-aligned box in pixels: `x..x + w` by `y..y + h` (pixel edges, so a box from 0 to
 /// 10 covers pixels 0 to 9).
@@ -52,7 +52,7 @@ impl From<&MotionBox> for BoxPx {
     ///
     /// ```
     /// use host_sim::synth::objects::BoxPx;
-    /// use kestrel::dense::regions::MotionBox;
+    /// use kestrel::dense::MotionBox;
     /// let found = MotionBox { x: 8, y: 16, w: 24, h: 12, ..MotionBox::default() };
     /// assert_eq!(BoxPx::from(&found), BoxPx { x: 8.0, y: 16.0, w: 24.0, h: 12.0 });
     /// ```

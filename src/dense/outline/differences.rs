@@ -17,7 +17,7 @@ pub(super) const SUB_BITS: u32 = 4;
 pub(super) const UNKNOWN: u16 = u16::MAX;
 
 /// Differences of row `y` (pixels `area.x - 1 ..= area.x + area.w`) between the previous frame
-/// and the next sampled at the camera's flow, which is predicted at the row's two ends and
+/// and the next sampled at the camera's flow, which is evaluated at the row's two ends and
 /// taken as linear between them; [`UNKNOWN`] where the sample leaves the next frame.
 pub(super) fn camera_row(
     prev: &ImageView<'_>,
@@ -30,7 +30,7 @@ pub(super) fn camera_row(
     let first = area.x.saturating_sub(1);
     let last = area.x + area.w;
     let at = |x: usize| {
-        let (dx, dy) = camera.predict(x as f32, y as f32);
+        let (dx, dy) = camera.flow_at(x as f32, y as f32);
         (flow_bits(dx), flow_bits(dy))
     };
     let ((x0, y0), (x1, y1)) = (at(first), at(last));

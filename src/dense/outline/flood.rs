@@ -4,7 +4,7 @@
 //! share a region but not a pixel, or whose flows differ, are outlined apart.
 
 use super::area::Area;
-use super::MAX_FLOWS;
+use super::OUTLINE_MAX_FLOWS;
 
 /// The high bit of a label: its pixel was pushed by a flood fill.
 pub(super) const VISITED: u16 = 1 << 15;
@@ -15,7 +15,7 @@ pub(super) struct Outline {
     pub cols: (usize, usize),
     pub rows: (usize, usize),
     pub pixels: usize,
-    pub votes: [usize; MAX_FLOWS],
+    pub votes: [usize; OUTLINE_MAX_FLOWS],
 }
 
 impl Outline {
@@ -25,7 +25,7 @@ impl Outline {
             cols: (col, col),
             rows: (row, row),
             pixels: 0,
-            votes: [0; MAX_FLOWS],
+            votes: [0; OUTLINE_MAX_FLOWS],
         }
     }
 
@@ -45,7 +45,7 @@ impl Outline {
 /// `stack` holds the pixels to visit.
 pub(super) fn flood(
     area: &Area,
-    joined: &[u8; MAX_FLOWS],
+    joined: &[u8; OUTLINE_MAX_FLOWS],
     labels: &mut [u16],
     stack: &mut [u16],
     seed: usize,
@@ -95,7 +95,7 @@ fn mark(labels: &mut [u16], stack: &mut [u16], top: &mut usize, at: usize) {
         *label |= VISITED;
     }
     if let Some(slot) = stack.get_mut(*top) {
-        // Below MAX_SIDE^2 < 2^16.
+        // Below OUTLINE_MAX_SIDE^2 < 2^16.
         *slot = at as u16;
         *top += 1;
     }

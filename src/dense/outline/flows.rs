@@ -1,9 +1,9 @@
 //! The object flows tried at one candidate.
 
 use super::area::Area;
-use super::MAX_FLOWS;
+use super::OUTLINE_MAX_FLOWS;
 use crate::dense::grid::{GridLayout, GridNode};
-use crate::dense::mask::contains;
+use crate::dense::mask::mask_contains;
 use crate::q16::{Point, Q16};
 
 /// Flows closer than this on both axes are tried once, Q16 (half a pixel).
@@ -15,13 +15,13 @@ const JOINED_FLOW: i32 = 1 << 16;
 
 /// The flows tried at one candidate, Q16: pixel label `k + 1` stands for `flows[k]`.
 pub(super) struct Flows {
-    pub flows: [Point; MAX_FLOWS],
+    pub flows: [Point; OUTLINE_MAX_FLOWS],
     pub len: usize,
 }
 
 impl Flows {
     pub const EMPTY: Self = Self {
-        flows: [Point::from_bits(0, 0); MAX_FLOWS],
+        flows: [Point::from_bits(0, 0); OUTLINE_MAX_FLOWS],
         len: 0,
     };
 
@@ -40,13 +40,13 @@ impl Flows {
     }
 
     /// The distinct flows of the moving measured nodes whose centres lie in `area`, the first
-    /// [`MAX_FLOWS`] in raster order.
+    /// [`OUTLINE_MAX_FLOWS`] in raster order.
     pub fn of_nodes(layout: &GridLayout, nodes: &[GridNode], mask: &[u32], area: &Area) -> Self {
         let mut flows = Self::EMPTY;
         for (index, node) in nodes.iter().take(layout.len()).enumerate() {
             let (col, row) = layout.node(index);
             let (x, y) = layout.centre(col, row);
-            if area.contains(x, y) && contains(mask, index) && node.is_valid() {
+            if area.contains(x, y) && mask_contains(mask, index) && node.is_valid() {
                 flows.add(node.flow);
             }
         }
@@ -55,7 +55,7 @@ impl Flows {
 
     /// For each flow, the flows (bit `j` for flow `j`) within [`JOINED_FLOW`] of it: the
     /// flows whose pixels one outline may hold.
-    pub fn joined(&self) -> [u8; MAX_FLOWS] {
+    pub fn joined(&self) -> [u8; OUTLINE_MAX_FLOWS] {
         core::array::from_fn(|i| {
             let Some(a) = self.flows.get(i).filter(|_| i < self.len) else {
                 return 0;

@@ -74,7 +74,7 @@ impl Outliner {
         } = scratch;
         let hypotheses = flows.len.saturating_add(1);
         let row_len = area.w.saturating_add(2);
-        // The ring holds three rows for each of the MAX_FLOWS + 2 hypotheses at the scratch's
+        // The ring holds three rows for each of the OUTLINE_MAX_FLOWS + 2 hypotheses at the scratch's
         // side, and the area is at most that side wide, so every row below fits. Checked once
         // here so that a broken scratch leaves no pixel labelled from an older labelling.
         let needed = (hypotheses + 1) * 3 * row_len;

@@ -1,91 +1,4 @@
-//! Moving regions outlined at pixel resolution.
-//!
-//! The grid knows where something moves only to a cell and a window: on an 8 px grid with 9 px
-//! windows a 10 px object moves a block of nodes about twice its size, and two objects a few
-//! pixels apart move one block between them; a small object faster than LK's reach leaves
-//! nodes that match nothing. An [`Outliner`] looks at the pixels of each candidate box (grown
-//! by a margin) in the previous frame and asks which motion explains each one: the camera's,
-//! or one of a few object flows. Those come from a vote on pyramid level 1 (each pixel the
-//! camera does not explain votes for the whole-pixel shift that matches it best), from the
-//! candidate's own flow and from its moving nodes, and are refined by Gauss-Newton on the
-//! pixels that chose them. A pixel belongs to an object when one of those flows matches its
-//! 3 x 3 neighbourhood in the next frame clearly better than the camera's flow does (sums of
-//! absolute differences, the next frame sampled bilinearly) and better than its own texture
-//! would allow a misaligned match to. Connected object pixels whose flows agree within a pixel
-//! make one outline; its box is theirs, and its flow the flow most of them chose.
-//!
-//! So two objects that share a region but not a pixel get a box each, a box fits its object to
-//! the pixel, and a region whose nodes were mismeasured (on still ground every pixel matches
-//! the camera) gives no box at all.
-//!
-//! Pixels the camera carries out of the next frame cannot be told and belong to nothing. A
-//! candidate too large for the scratch keeps its grid box: it is a large object, which the grid
-//! already boxes well.
-//!
-//! The work is bounded by the candidate's area: per level-1 pixel the camera does not explain,
-//! one 3 x 3 difference per shift within the reach; per level-0 pixel and labelling, one
-//! bilinear sample and one difference per flow tried (at most [`MAX_FLOWS`], the camera's and
-//! the texture), and the sums of three rows kept in a ring. It is host-sized work: on the
-//! STM32F405 one 160 x 120 frame's outlines cost millions of instructions (see
-//! `firmware/README.md`).
-//!
-//! ```
-//! use kestrel::dense::grid::{grid_len, GridLayout, GridNode};
-//! use kestrel::dense::mask::{mask_words, set};
-//! use kestrel::dense::motion::CameraMotion;
-//! use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
-//! use kestrel::dense::regions::MotionBox;
-//! use kestrel::frame::ImageView;
-//! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
-//! use kestrel::Point;
-//!
-//! // A still camera over ground with a 10 x 10 object that moves 3 px right.
-//! const W: usize = 64;
-//! const H: usize = 48;
-//! let ground = |x: usize, y: usize| ((x * 7 + y * 13 + (x * y) % 11 * 19) % 200) as u8;
-//! let object = |x: usize, y: usize| ((x * 29 + y * 5 + (x ^ y) * 23) % 240) as u8 + 10;
-//! let frame = |shift: usize| -> [u8; W * H] {
-//!     core::array::from_fn(|i| {
-//!         let (x, y) = (i % W, i / W);
-//!         let inside = (20 + shift..30 + shift).contains(&x) && (16..26).contains(&y);
-//!         if inside { object(x - shift, y) } else { ground(x, y) }
-//!     })
-//! };
-//! let (a, b) = (frame(0), frame(3));
-//! let mut storage = [[0u8; pyramid_storage_len(W, H, 1)]; 2];
-//! let [sa, sb] = &mut storage;
-//! let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, sa).unwrap();
-//! let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, sb).unwrap();
-//!
-//! // The grid found the object's motion at two nodes, in a region boxed from 16 to 40 px.
-//! let layout = GridLayout::new(W, H, 8).unwrap();
-//! let mut nodes = [GridNode::tracked(Point::default()); grid_len(W, H, 8)];
-//! let mut mask = [0u32; mask_words(W, H, 8)];
-//! for (col, row) in [(2, 2), (3, 2)] {
-//!     let index = layout.index(col, row).unwrap();
-//!     nodes[index] = GridNode::tracked(Point::from_f32(3.0, 0.0));
-//!     set(&mut mask, index, true);
-//! }
-//! struct Still;
-//! impl CameraMotion for Still {
-//!     fn predict(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
-//! }
-//! let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
-//!
-//! let outliner = Outliner::new(OutlineParams::default()).unwrap();
-//! let mut scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
-//! let mut boxes = [MotionBox::default(); 4];
-//! let n = outliner
-//!     .outline(&prev, &next, &Still, &layout, &nodes, &mask, &[candidate], &mut scratch, &mut boxes)
-//!     .unwrap();
-//! assert_eq!(n, 1);
-//! // The object's 10 x 10 pixels from (20, 16), to within a pixel on every side.
-//! let b = boxes[0];
-//! let sides = [(b.x, 20), (b.y, 16), (b.x + b.w, 30), (b.y + b.h, 26)];
-//! assert!(sides.iter().all(|&(got, want)| got.abs_diff(want) <= 1), "{b:?}");
-//! let (dx, dy) = boxes[0].mean_flow.to_f32();
-//! assert!((dx - 3.0).abs() < 0.1 && dy.abs() < 0.1);
-//! ```
+//! Moving regions outlined at pixel resolution: [`Outliner`].
 
 // The stages `Outliner::outline` runs on each candidate, in this order: the area searched,
 // the vote for its flows, their refinement, the labelling of its pixels, the flood fill that
@@ -117,34 +30,33 @@ use refine::refine;
 use scratch::OutlineScratch;
 
 /// The most object flows tried at one candidate (besides the camera's): up to
-/// [`VOTED_FLOWS`] from the vote, the candidate's own, and its nodes'.
-pub const MAX_FLOWS: usize = 6;
+/// [`OUTLINE_VOTED_FLOWS`] from the vote, the candidate's own, and its nodes'.
+pub const OUTLINE_MAX_FLOWS: usize = 6;
 
 /// The most flows taken from the vote: the objects one candidate region holds, which on
 /// an 8 px grid is rarely more than three.
-pub const VOTED_FLOWS: usize = 3;
+pub const OUTLINE_VOTED_FLOWS: usize = 3;
 
 /// The widest and highest area a scratch can hold: pixel indices are `u16`.
-pub const MAX_SIDE: usize = 255;
+pub const OUTLINE_MAX_SIDE: usize = 255;
 
 /// The smallest [`OutlineParams::side`]: the labelling keeps four rows of sums where the
 /// flood fill's stack (`side` x `side`) will be.
-pub const MIN_SIDE: usize = 8;
+pub const OUTLINE_MIN_SIDE: usize = 8;
 
 /// The largest [`OutlineParams::reach`], px: 65 x 65 bins at most.
-pub const MAX_REACH: usize = 128;
+pub const OUTLINE_MAX_REACH: usize = 128;
 
 /// How candidates are outlined.
 ///
 /// A still camera over ground where a 10 x 10 object moves 3 px right, boxed by the grid
-/// (the setup of the module example):
+/// (the setup of [`Outliner`]'s example):
 ///
 /// ```
-/// # use kestrel::dense::grid::{grid_len, GridLayout, GridNode};
-/// # use kestrel::dense::mask::{mask_words, set};
-/// # use kestrel::dense::motion::CameraMotion;
-/// # use kestrel::dense::outline::{outline_scratch_len, OutlineParams, Outliner};
-/// # use kestrel::dense::regions::MotionBox;
+/// # use kestrel::dense::{
+/// #     grid_len, mask_set, mask_words, outline_scratch_len, CameraMotion, GridLayout, GridNode,
+/// #     MotionBox, OutlineParams, Outliner,
+/// # };
 /// # use kestrel::frame::ImageView;
 /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// # use kestrel::Point;
@@ -174,11 +86,11 @@ pub const MAX_REACH: usize = 128;
 /// # for (col, row) in [(2, 2), (3, 2)] {
 /// #     let index = layout.index(col, row).unwrap();
 /// #     nodes[index] = GridNode::tracked(Point::from_f32(3.0, 0.0));
-/// #     set(&mut mask, index, true);
+/// #     mask_set(&mut mask, index, true);
 /// # }
 /// # struct Still;
 /// # impl CameraMotion for Still {
-/// #     fn predict(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
+/// #     fn flow_at(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
 /// # }
 /// # let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
 /// #
@@ -213,12 +125,12 @@ pub struct OutlineParams {
     /// labelling: a node's flow is measured over a window that also sees the ground, so the
     /// object's own pixels give its flow more exactly, and more of them then match.
     pub refinements: usize,
-    /// The widest and highest area searched, px, [`MIN_SIDE`] to [`MAX_SIDE`]: the scratch is
+    /// The widest and highest area searched, px, [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`]: the scratch is
     /// [`outline_scratch_len`] of it.
     pub side: usize,
     /// The largest motion searched beside the camera's, px, on each axis: the objects' flows
     /// are found by a vote of the area's pixels over the shifts within this reach, on pyramid
-    /// level 1. At most [`MAX_REACH`].
+    /// level 1. At most [`OUTLINE_MAX_REACH`].
     pub reach: usize,
 }
 
@@ -240,24 +152,111 @@ impl Default for OutlineParams {
     }
 }
 
-/// Outlines moving regions at pixel resolution. See the module documentation.
+/// Outlines moving regions at pixel resolution.
+///
+/// The grid knows where something moves only to a cell and a window: on an 8 px grid with 9 px
+/// windows a 10 px object moves a block of nodes about twice its size, and two objects a few
+/// pixels apart move one block between them; a small object faster than LK's reach leaves
+/// nodes that match nothing. An `Outliner` looks at the pixels of each candidate box (grown
+/// by a margin) in the previous frame and asks which motion explains each one: the camera's,
+/// or one of a few object flows. Those come from a vote on pyramid level 1 (each pixel the
+/// camera does not explain votes for the whole-pixel shift that matches it best), from the
+/// candidate's own flow and from its moving nodes, and are refined by Gauss-Newton on the
+/// pixels that chose them. A pixel belongs to an object when one of those flows matches its
+/// 3 x 3 neighbourhood in the next frame clearly better than the camera's flow does (sums of
+/// absolute differences, the next frame sampled bilinearly) and better than its own texture
+/// would allow a misaligned match to. Connected object pixels whose flows agree within a pixel
+/// make one outline; its box is theirs, and its flow the flow most of them chose.
+///
+/// So two objects that share a region but not a pixel get a box each, a box fits its object to
+/// the pixel, and a region whose nodes were mismeasured (on still ground every pixel matches
+/// the camera) gives no box at all.
+///
+/// Pixels the camera carries out of the next frame cannot be told and belong to nothing. A
+/// candidate too large for the scratch keeps its grid box: it is a large object, which the grid
+/// already boxes well.
+///
+/// The work is bounded by the candidate's area: per level-1 pixel the camera does not explain,
+/// one 3 x 3 difference per shift within the reach; per level-0 pixel and labelling, one
+/// bilinear sample and one difference per flow tried (at most [`OUTLINE_MAX_FLOWS`], the camera's and
+/// the texture), and the sums of three rows kept in a ring. It is host-sized work: on the
+/// STM32F405 one 160 x 120 frame's outlines cost millions of instructions (see
+/// `firmware/README.md`).
+///
+/// ```
+/// use kestrel::dense::{
+///     grid_len, mask_set, mask_words, outline_scratch_len, CameraMotion, GridLayout, GridNode,
+///     MotionBox, OutlineParams, Outliner,
+/// };
+/// use kestrel::frame::ImageView;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::Point;
+///
+/// // A still camera over ground with a 10 x 10 object that moves 3 px right.
+/// const W: usize = 64;
+/// const H: usize = 48;
+/// let ground = |x: usize, y: usize| ((x * 7 + y * 13 + (x * y) % 11 * 19) % 200) as u8;
+/// let object = |x: usize, y: usize| ((x * 29 + y * 5 + (x ^ y) * 23) % 240) as u8 + 10;
+/// let frame = |shift: usize| -> [u8; W * H] {
+///     core::array::from_fn(|i| {
+///         let (x, y) = (i % W, i / W);
+///         let inside = (20 + shift..30 + shift).contains(&x) && (16..26).contains(&y);
+///         if inside { object(x - shift, y) } else { ground(x, y) }
+///     })
+/// };
+/// let (a, b) = (frame(0), frame(3));
+/// let mut storage = [[0u8; pyramid_storage_len(W, H, 1)]; 2];
+/// let [sa, sb] = &mut storage;
+/// let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, sa).unwrap();
+/// let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, sb).unwrap();
+///
+/// // The grid found the object's motion at two nodes, in a region boxed from 16 to 40 px.
+/// let layout = GridLayout::new(W, H, 8).unwrap();
+/// let mut nodes = [GridNode::tracked(Point::default()); grid_len(W, H, 8)];
+/// let mut mask = [0u32; mask_words(W, H, 8)];
+/// for (col, row) in [(2, 2), (3, 2)] {
+///     let index = layout.index(col, row).unwrap();
+///     nodes[index] = GridNode::tracked(Point::from_f32(3.0, 0.0));
+///     mask_set(&mut mask, index, true);
+/// }
+/// struct Still;
+/// impl CameraMotion for Still {
+///     fn flow_at(&self, _: f32, _: f32) -> (f32, f32) { (0.0, 0.0) }
+/// }
+/// let candidate = MotionBox { x: 16, y: 12, w: 24, h: 16, nodes: 2, mean_flow: Point::from_f32(3.0, 0.0) };
+///
+/// let outliner = Outliner::new(OutlineParams::default()).unwrap();
+/// let mut scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
+/// let mut boxes = [MotionBox::default(); 4];
+/// let n = outliner
+///     .outline(&prev, &next, &Still, &layout, &nodes, &mask, &[candidate], &mut scratch, &mut boxes)
+///     .unwrap();
+/// assert_eq!(n, 1);
+/// // The object's 10 x 10 pixels from (20, 16), to within a pixel on every side.
+/// let b = boxes[0];
+/// let sides = [(b.x, 20), (b.y, 16), (b.x + b.w, 30), (b.y + b.h, 26)];
+/// assert!(sides.iter().all(|&(got, want)| got.abs_diff(want) <= 1), "{b:?}");
+/// let (dx, dy) = boxes[0].mean_flow.to_f32();
+/// assert!((dx - 3.0).abs() < 0.1 && dy.abs() < 0.1);
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Outliner {
     params: OutlineParams,
 }
 
 impl Outliner {
-    /// Validates `params`: a side of [`MIN_SIDE`] to [`MAX_SIDE`] px and a reach of at most
-    /// [`MAX_REACH`] px.
+    /// Validates `params`: a side of [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`] px and a reach of at most
+    /// [`OUTLINE_MAX_REACH`] px.
     ///
     /// ```
-    /// use kestrel::dense::outline::{OutlineParams, Outliner, MAX_SIDE};
-    /// use kestrel::dense::DenseError;
-    /// let wide = OutlineParams { side: MAX_SIDE + 1, ..OutlineParams::default() };
+    /// use kestrel::dense::{DenseError, OutlineParams, Outliner, OUTLINE_MAX_SIDE};
+    /// let wide = OutlineParams { side: OUTLINE_MAX_SIDE + 1, ..OutlineParams::default() };
     /// assert_eq!(Outliner::new(wide).unwrap_err(), DenseError::BadOutline);
     /// ```
     pub fn new(params: OutlineParams) -> Result<Self, DenseError> {
-        if !(MIN_SIDE..=MAX_SIDE).contains(&params.side) || params.reach > MAX_REACH {
+        if !(OUTLINE_MIN_SIDE..=OUTLINE_MAX_SIDE).contains(&params.side)
+            || params.reach > OUTLINE_MAX_REACH
+        {
             return Err(DenseError::BadOutline);
         }
         Ok(Self { params })
@@ -266,7 +265,7 @@ impl Outliner {
     /// The parameters this outliner was built with.
     ///
     /// ```
-    /// use kestrel::dense::outline::{OutlineParams, Outliner};
+    /// use kestrel::dense::{OutlineParams, Outliner};
     /// let params = OutlineParams { margin: 2, side: 32, reach: 4, ..OutlineParams::default() };
     /// assert_eq!(*Outliner::new(params).unwrap().params(), params);
     /// ```
@@ -284,7 +283,7 @@ impl Outliner {
     /// nodes' flows are tried.
     ///
     /// An outline's `nodes` are its candidate's, and its `mean_flow` the flow most of its
-    /// pixels chose. See the module example.
+    /// pixels chose. See [`Outliner`]'s example.
     #[allow(clippy::too_many_arguments)]
     pub fn outline(
         &self,
@@ -407,7 +406,7 @@ impl Outliner {
 mod tests {
     use super::*;
     use crate::dense::grid::grid_len;
-    use crate::dense::mask::{mask_words, set};
+    use crate::dense::mask::{mask_set, mask_words};
     use crate::pyramid::pyramid_storage_len;
     use crate::q16::Point;
 
@@ -417,7 +416,7 @@ mod tests {
 
     struct Still;
     impl CameraMotion for Still {
-        fn predict(&self, _: f32, _: f32) -> (f32, f32) {
+        fn flow_at(&self, _: f32, _: f32) -> (f32, f32) {
             (0.0, 0.0)
         }
     }
@@ -478,7 +477,7 @@ mod tests {
         for &(col, row) in moving {
             let index = layout.index(col, row).unwrap();
             nodes[index] = GridNode::tracked(Point::from_f32(flow.0, flow.1));
-            set(&mut mask, index, true);
+            mask_set(&mut mask, index, true);
         }
         let outliner = Outliner::new(OutlineParams::default()).unwrap();
         let mut scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
@@ -621,12 +620,12 @@ mod tests {
     #[test]
     fn bad_parameters_and_short_buffers_are_refused() {
         let narrow = OutlineParams {
-            side: MIN_SIDE - 1,
+            side: OUTLINE_MIN_SIDE - 1,
             ..OutlineParams::default()
         };
         assert_eq!(Outliner::new(narrow).unwrap_err(), DenseError::BadOutline);
         let far = OutlineParams {
-            reach: MAX_REACH + 1,
+            reach: OUTLINE_MAX_REACH + 1,
             ..OutlineParams::default()
         };
         assert_eq!(Outliner::new(far).unwrap_err(), DenseError::BadOutline);

@@ -7,7 +7,7 @@
 use super::area::Area;
 use super::differences::{sample, SUB_BITS};
 use super::flows::Flows;
-use super::MAX_FLOWS;
+use super::OUTLINE_MAX_FLOWS;
 use crate::frame::ImageView;
 use crate::q16::{q16_from_f32, Point};
 
@@ -40,10 +40,10 @@ fn normal_sums(
     area: &Area,
     flows: &Flows,
     label_of: impl Fn(usize, usize) -> u16,
-) -> [[i64; 5]; MAX_FLOWS] {
+) -> [[i64; 5]; OUTLINE_MAX_FLOWS] {
     // Per flow: gxx, gxy, gyy, gx e, gy e; gradients and differences grey x 16 (|g| < 2^12,
     // |e| < 2^12), so each product is below 2^24 and 2^16 pixels of them below 2^40.
-    let mut sums = [[0i64; 5]; MAX_FLOWS];
+    let mut sums = [[0i64; 5]; OUTLINE_MAX_FLOWS];
     for row in 0..area.h {
         let y = area.y + row;
         let (up, here, down) = (prev.row(y - 1), prev.row(y), prev.row(y + 1));

@@ -5,14 +5,14 @@
 //! the labelling keeps its rows of sums in the stack, which the flood fill needs only after.
 //! [`OutlineScratch`] names each part once, and each borrowing is a named view of its own.
 
-use super::MAX_FLOWS;
+use super::OUTLINE_MAX_FLOWS;
 
 /// Scratch, in `u16`, for areas up to `side` x `side` pixels and motions up to `reach` px:
 /// the pixel labels, a flood-fill stack, the three-row ring of differences of every flow
 /// tried, and the vote's bins. The vote on level 1 borrows the labels and the stack.
 ///
 /// ```
-/// use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
+/// use kestrel::dense::{outline_scratch_len, OutlineParams};
 /// // Labels and stack, 8 x 3 ring rows of 50, 9 x 9 vote bins.
 /// assert_eq!(outline_scratch_len(48, 8), 2 * 48 * 48 + 24 * 50 + 81);
 /// const LEN: usize = outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8);
@@ -28,7 +28,7 @@ pub const fn outline_scratch_len(side: usize, reach: usize) -> usize {
 }
 
 /// Rows of the ring: three for the camera, each flow, and the texture.
-const RING_ROWS: usize = (MAX_FLOWS + 2) * 3;
+const RING_ROWS: usize = (OUTLINE_MAX_FLOWS + 2) * 3;
 
 /// Bins of the vote over shifts of up to `reach` px (`reach / 2` on the level searched).
 const fn bins(reach: usize) -> usize {

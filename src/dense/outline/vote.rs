@@ -2,7 +2,7 @@
 //!
 //! Each pixel there that the camera's flow does not explain votes for the whole-pixel shift
 //! (within the reach of the camera's flow at the area's centre) whose 3 x 3 neighbourhood
-//! matches best; the [`VOTED_FLOWS`] shifts with the most votes, each at least a quarter of
+//! matches best; the [`OUTLINE_VOTED_FLOWS`] shifts with the most votes, each at least a quarter of
 //! [`super::OutlineParams::min_pixels`] (a level-1 pixel is four), are the flows, doubled to
 //! level 0. Level 1 has a quarter of the pixels and half the shifts on each axis, so the search
 //! costs a sixteenth of level 0's, and its whole pixels are two at level 0, which the
@@ -12,7 +12,7 @@ use super::area::Area;
 use super::differences::{camera_row, flow_bits, sad3, sums3, UNKNOWN};
 use super::flows::Flows;
 use super::scratch::{OutlineScratch, VoteScratch};
-use super::{Outliner, MAX_FLOWS, VOTED_FLOWS};
+use super::{Outliner, OUTLINE_MAX_FLOWS, OUTLINE_VOTED_FLOWS};
 use crate::dense::motion::CameraMotion;
 use crate::frame::ImageView;
 use crate::q16::{Point, Q16};
@@ -24,8 +24,8 @@ const NO_BIN: u16 = u16::MAX;
 struct Scaled<'a, C>(&'a C);
 
 impl<C: CameraMotion> CameraMotion for Scaled<'_, C> {
-    fn predict(&self, x: f32, y: f32) -> (f32, f32) {
-        let (dx, dy) = self.0.predict(2.0 * x, 2.0 * y);
+    fn flow_at(&self, x: f32, y: f32) -> (f32, f32) {
+        let (dx, dy) = self.0.flow_at(2.0 * x, 2.0 * y);
         (0.5 * dx, 0.5 * dy)
     }
 }
@@ -77,7 +77,7 @@ impl Outliner {
         let half = area.halved(prev);
         let reach = (self.params.reach / 2) as i32;
         let side = 2 * reach as usize + 1;
-        let (cx, cy) = camera.predict((area.x + area.w / 2) as f32, (area.y + area.h / 2) as f32);
+        let (cx, cy) = camera.flow_at((area.x + area.w / 2) as f32, (area.y + area.h / 2) as f32);
         let shifts = Shifts {
             reach,
             side,
@@ -131,16 +131,16 @@ impl Outliner {
         }
     }
 
-    /// The flows of the bins with the most votes, at most [`VOTED_FLOWS`] and each with at
+    /// The flows of the bins with the most votes, at most [`OUTLINE_VOTED_FLOWS`] and each with at
     /// least a quarter of [`super::OutlineParams::min_pixels`]; beside them, the bin each
     /// flow came from ([`NO_BIN`] past the last).
-    fn count_votes(&self, shifts: &Shifts, votes: &mut [u16]) -> (Flows, [u16; MAX_FLOWS]) {
+    fn count_votes(&self, shifts: &Shifts, votes: &mut [u16]) -> (Flows, [u16; OUTLINE_MAX_FLOWS]) {
         let mut flows = Flows::EMPTY;
-        let mut chosen = [NO_BIN; MAX_FLOWS];
+        let mut chosen = [NO_BIN; OUTLINE_MAX_FLOWS];
         let floor = (self.params.min_pixels / 4).max(1);
         // The shifts with the most votes, without suppressing their neighbours: two objects
         // a pixel apart in flow vote for neighbouring shifts.
-        while flows.len < VOTED_FLOWS {
+        while flows.len < OUTLINE_VOTED_FLOWS {
             let Some((bin, count)) = votes
                 .iter_mut()
                 .take(shifts.bins())
@@ -196,7 +196,7 @@ fn camera_differences(
 ) {
     let row_len = area.w + 2;
     // The vote's area is at most (side / 2 + 1) px on a side, so its rows and the pixel around
-    // them, (side / 2 + 3)^2 <= side^2 for a side of at least MIN_SIDE, fit in the labels'
+    // them, (side / 2 + 3)^2 <= side^2 for a side of at least OUTLINE_MIN_SIDE, fit in the labels'
     // side x side. Checked once, before any row is written.
     let needed = (area.h + 2) * row_len;
     debug_assert!(
@@ -234,7 +234,7 @@ fn best_shift(
 
 /// Turns each voter's bin into the label of its flow: `k + 1` for chosen bin `k`, or for a
 /// chosen bin beside its own (one object's pixels split between neighbouring shifts), else 0.
-fn label_voters(shifts: &Shifts, chosen: &[u16; MAX_FLOWS], voters: &mut [u16]) {
+fn label_voters(shifts: &Shifts, chosen: &[u16; OUTLINE_MAX_FLOWS], voters: &mut [u16]) {
     for s in voters.iter_mut() {
         let own = chosen.iter().position(|&c| c == *s);
         let beside = || {

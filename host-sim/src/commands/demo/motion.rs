@@ -4,8 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use kestrel::dense::grid::DenseParams;
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::{DenseParams, MotionBox};
 
 use super::Scenario;
 use crate::commands::CommandError;

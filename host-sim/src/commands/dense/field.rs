@@ -10,7 +10,7 @@
 //! (u, v) pairs of every pixel row by row as 32-bit floats, all little-endian. Unknown flow is
 //! written as 1e10; any component above 1e9 reads as unknown.
 
-use kestrel::dense::grid::{GridLayout, GridNode};
+use kestrel::dense::{GridLayout, GridNode};
 
 /// The float that starts every `.flo` file.
 pub const FLO_MAGIC: f32 = 202_021.25;
@@ -187,7 +187,7 @@ fn interpolate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kestrel::dense::grid::NodeStatus;
+    use kestrel::dense::NodeStatus;
     use kestrel::Point;
 
     #[test]

@@ -14,8 +14,7 @@ pub use runner::*;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use kestrel::dense::grid::{DenseParams, GridLayout, GridNode, NodeStatus};
-use kestrel::dense::DenseError;
+use kestrel::dense::{DenseError, DenseParams, GridLayout, GridNode, NodeStatus};
 use kestrel::lk::LkParams;
 
 use super::{check_same_size, time_core, CommandError};
@@ -77,11 +76,11 @@ pub struct DenseOptions {
     pub grid: GridFlags,
     /// average each measured node with the measured neighbours whose flow is within PX (0 to
     /// 8) of its own (a local affine fit); 0 leaves the measurements alone
-    #[arg(long, value_name = "PX", default_value_t = kestrel::dense::smooth::DEFAULT_GATE, value_parser = smooth_gate)]
+    #[arg(long, value_name = "PX", default_value_t = kestrel::dense::SMOOTH_GATE, value_parser = smooth_gate)]
     pub smooth_gate: f32,
     /// passes of that fit, each over the nodes the last one smoothed and reaching a node
     /// further, 0 to 8; 0 leaves the measurements alone
-    #[arg(long, value_name = "N", default_value_t = kestrel::dense::smooth::DEFAULT_PASSES, value_parser = smooth_passes)]
+    #[arg(long, value_name = "N", default_value_t = kestrel::dense::SMOOTH_PASSES, value_parser = smooth_passes)]
     pub smooth_passes: u8,
     /// run the core (build both pyramids, compute the grid, smooth it) N times, N >= 1
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = values::repeat)]

@@ -1,9 +1,7 @@
 //! The motion overlay: a frame with its moving grid cells tinted and the boxes outlined.
 
 use image::{Rgb, RgbImage};
-use kestrel::dense::grid::{GridLayout, GridNode};
-use kestrel::dense::mask::contains;
-use kestrel::dense::regions::MotionBox;
+use kestrel::dense::{mask_contains, GridLayout, GridNode, MotionBox};
 
 use crate::viz::canvas::{grey, outline, tint};
 use crate::Frame;
@@ -24,7 +22,7 @@ pub fn motion_overlay(
 ) -> RgbImage {
     let mut picture = grey(later, 255);
     for (index, node) in nodes.iter().enumerate().take(layout.len()) {
-        if !contains(mask, index) {
+        if !mask_contains(mask, index) {
             continue;
         }
         let (col, row) = layout.node(index);

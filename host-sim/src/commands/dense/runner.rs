@@ -4,14 +4,12 @@
 //! The runners own their buffers, allocated once for a frame size as firmware would place them
 //! in statics, so that each call is exactly the library's work on one frame.
 
-use kestrel::dense::dominant::{DominantFit, DominantMotion, FitParams};
-use kestrel::dense::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
-use kestrel::dense::mask::mask_words;
-use kestrel::dense::motion::{motion_scratch_len, MotionParams, MotionSummary};
-use kestrel::dense::outline::{outline_scratch_len, OutlineParams};
-use kestrel::dense::regions::{BoxRules, MotionBox};
-use kestrel::dense::smooth::{smooth_scratch_len, smooth_tracked, DEFAULT_GATE, DEFAULT_PASSES};
-use kestrel::dense::{DenseError, MovingObjects, MovingObjectsBuffers, MovingObjectsConfig};
+use kestrel::dense::{
+    mask_words, motion_scratch_len, outline_scratch_len, smooth_scratch_len, smooth_tracked,
+    BoxRules, DenseError, DenseFlow, DenseParams, DenseSummary, DominantFit, DominantFitParams,
+    DominantMotion, GridLayout, GridNode, MotionBox, MotionParams, MotionSummary, MovingObjects,
+    MovingObjectsBuffers, MovingObjectsConfig, OutlineParams, SMOOTH_GATE, SMOOTH_PASSES,
+};
 use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
@@ -128,11 +126,11 @@ pub struct Smoothing {
 }
 
 impl Default for Smoothing {
-    /// [`DEFAULT_GATE`] and [`DEFAULT_PASSES`].
+    /// [`SMOOTH_GATE`] and [`SMOOTH_PASSES`].
     fn default() -> Self {
         Self {
-            gate: DEFAULT_GATE,
-            passes: DEFAULT_PASSES,
+            gate: SMOOTH_GATE,
+            passes: SMOOTH_PASSES,
         }
     }
 }
@@ -149,13 +147,13 @@ pub struct MotionSettings {
     /// Grid flow.
     pub dense: DenseParams,
     /// The camera's dominant motion.
-    pub fit: FitParams,
+    pub fit: DominantFitParams,
     /// Mask, morphology and regions.
     pub motion: MotionParams,
     /// Regions outlined at pixel resolution; `None` keeps the grid's boxes.
     pub outline: Option<OutlineParams>,
     /// Consecutive frame pairs a region must move in to be reported
-    /// ([`kestrel::dense::persist::BoxPersistence`]); 1 reports every pair's boxes.
+    /// ([`kestrel::dense::BoxPersistence`]); 1 reports every pair's boxes.
     pub persist_pairs: u8,
 }
 
@@ -179,7 +177,7 @@ impl Default for MotionSettings {
     fn default() -> Self {
         Self {
             dense: DenseParams::for_motion(),
-            fit: FitParams::default(),
+            fit: DominantFitParams::default(),
             motion: MotionParams {
                 // The outline checks every region at pixel level: even a node alone may be a
                 // small object's.

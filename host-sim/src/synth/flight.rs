@@ -410,20 +410,17 @@ mod tests {
     use super::*;
 
     /// Every path but `still`.
-    const MOVING: [FlightPath; 6] = [
-        FlightPath::Pan,
-        FlightPath::Yaw,
-        FlightPath::Climb,
-        FlightPath::Perspective,
-        FlightPath::Rotation,
-        FlightPath::Shake,
-    ];
+    fn moving() -> impl Iterator<Item = FlightPath> {
+        FlightPath::ALL
+            .into_iter()
+            .filter(|&p| p != FlightPath::Still)
+    }
 
     #[test]
     fn frame_zero_is_unwarped_and_pairs_chain_up() {
         let still = Flight::new(FlightPath::Still, 160, 120, 4).pair_homography(3);
         assert_eq!(still.distance(&Homography::IDENTITY, 160.0, 120.0), 0.0);
-        for path in MOVING {
+        for path in moving() {
             let flight = Flight::new(path, 160, 120, 4);
             assert!(
                 flight
@@ -476,7 +473,7 @@ mod tests {
 
     #[test]
     fn between_frames_the_flight_moves_continuously() {
-        for path in MOVING {
+        for path in moving() {
             let flight = Flight::new(path, 160, 120, 6);
             let (a, b) = (flight.homography(3), flight.homography(4));
             let middle = flight.homography_at(3.5);

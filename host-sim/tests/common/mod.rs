@@ -125,3 +125,16 @@ pub fn synth(scratch: &Scratch, name: &str, args: &[&str]) -> std::path::PathBuf
 pub fn synth_frame(dir: &std::path::Path, k: usize) -> host_sim::Frame {
     host_sim::io::images::read_grey(&dir.join("frames").join(format!("frame_{k:05}.png"))).unwrap()
 }
+
+/// Runs `synth-sequence` with each of `runs`' arguments and checks each run's
+/// [`synth_run_hash`] against the hash beside it (recorded before a change that must leave such
+/// runs as they were).
+pub fn assert_synth_hashes(scratch: &Scratch, runs: &[(&[&str], u64)]) {
+    let hashes: Vec<u64> = runs
+        .iter()
+        .enumerate()
+        .map(|(k, (args, _))| synth_run_hash(&synth(scratch, &format!("run{k}"), args)))
+        .collect();
+    let expected: Vec<u64> = runs.iter().map(|(_, hash)| *hash).collect();
+    assert_eq!(hashes, expected, "{hashes:#018x?}");
+}

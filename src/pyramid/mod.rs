@@ -171,7 +171,7 @@ impl<'a> Pyramid<'a> {
             let (buf, tail) = core::mem::take(&mut rest).split_at_mut(w * h);
             rest = tail;
             match filter {
-                PyramidFilter::Gaussian => Native::downsample(&finer, buf, w, h),
+                PyramidFilter::Gaussian => Gaussian::downsample(&finer, buf, w, h),
                 PyramidFilter::Box => BoxMean::downsample(&finer, buf, w, h),
             }
             let coarser = ImageView::packed(buf, w, h).map_err(PyramidError::Image)?;
@@ -314,14 +314,12 @@ fn reflect_outside(i: isize, n: usize) -> usize {
 // kernel is `dsp`'s. `strips` is the Gaussian filter the host ran before, kept for the tests as
 // the reference that the one loop gives the same pixels as.
 mod box_mean;
+mod gaussian;
 #[cfg(test)]
 mod strips;
-mod words;
 
 use box_mean::BoxMean;
-
-/// The Gaussian filter: one loop on every target, [`crate::dsp::binomial`] innermost.
-type Native = words::Words;
+use gaussian::Gaussian;
 
 /// One way to blur a level with the 5x5 binomial kernel and keep every second pixel into `dst`
 /// (`w` x `h`).
@@ -400,7 +398,7 @@ mod tests {
     /// Both ways of filtering give the direct convolution's pixels, at every width from the
     /// narrowest (all mirrored columns) through several words, with the extremes 0 and 255.
     #[test]
-    fn strips_and_words_match_direct_convolution() {
+    fn strips_and_gaussian_match_direct_convolution() {
         let mut state = 99u32;
         let pixels: [u8; 77 * 7] = core::array::from_fn(|_| {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
@@ -415,12 +413,12 @@ mod tests {
                 let frame = ImageView::packed(&pixels[..w * h], w, h).unwrap();
                 let (lw, lh) = (level_size(w, 1), level_size(h, 1));
                 let mut strips = [0u8; 39 * 4];
-                let mut words = [0u8; 39 * 4];
+                let mut gaussian = [0u8; 39 * 4];
                 strips::Strips::downsample(&frame, &mut strips[..lw * lh], lw, lh);
-                words::Words::downsample(&frame, &mut words[..lw * lh], lw, lh);
+                Gaussian::downsample(&frame, &mut gaussian[..lw * lh], lw, lh);
                 let level = |px| ImageView::packed(px, lw, lh).unwrap();
                 assert_direct_convolution(&frame, &level(&strips[..lw * lh]));
-                assert_direct_convolution(&frame, &level(&words[..lw * lh]));
+                assert_direct_convolution(&frame, &level(&gaussian[..lw * lh]));
             }
         }
     }
@@ -459,7 +457,7 @@ mod tests {
                 let mut strips = [0u8; 106 * 19];
                 let mut one = [0u8; 106 * 19];
                 strips::Strips::downsample(&frame, &mut strips[..lw * lh], lw, lh);
-                Native::downsample(&frame, &mut one[..lw * lh], lw, lh);
+                Gaussian::downsample(&frame, &mut one[..lw * lh], lw, lh);
                 assert_eq!(
                     strips[..lw * lh],
                     one[..lw * lh],

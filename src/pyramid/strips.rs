@@ -1,5 +1,5 @@
 //! The Gaussian level filter in strips, which the host ran before the one loop of
-//! [`super::words`]: each strip of output columns first sums five source rows `[1 4 6 4 1]` into
+//! [`super::gaussian`]: each strip of output columns first sums five source rows `[1 4 6 4 1]` into
 //! a small buffer, then filters that buffer horizontally at every second column. Kept for the
 //! tests only, as the reference that the one loop gives the same pixels as.
 

@@ -8,9 +8,9 @@ use crate::frame::ImageView;
 /// The one Gaussian filter loop: per output row, the outputs whose kernels lie within whole
 /// source words go to [`crate::dsp::binomial::binomial_row`] in one run; the columns whose
 /// kernel reaches past the row's ends take the direct path with mirrored columns.
-pub(super) struct Words;
+pub(super) struct Gaussian;
 
-impl Downsample for Words {
+impl Downsample for Gaussian {
     fn downsample(src: &ImageView<'_>, dst: &mut [u8], w: usize, h: usize) {
         let sw = src.width();
         // Output pairs (2k, 2k + 1) for k in 1..=pairs read source words k - 1 ..= k + 1.

@@ -21,7 +21,7 @@
 //!
 //! # Integer widths
 //!
-//! Template sums over at most [`MAX_WINDOW`] = 63 values are exact in 32 bits: a product of
+//! Template sums over at most [`super::MAX_WINDOW`] = 63 values are exact in 32 bits: a product of
 //! two values is at most `8160^2 = 66_585_600`, 63 of them `4_194_892_800 < 2^32` for the
 //! non-negative `I*I` (kept as `u32`), and `|I*Ix| <= 33_292_800`, 63 of them
 //! `2_097_446_400 < 2^31`; chunks add into 64 bits. Correlations are narrower still (see
@@ -400,7 +400,7 @@ fn fixed_pixel_template<const W: usize, const S: usize>(
     }
 }
 
-/// One template row on whole pixels: intensities and Scharr derivatives, as [`scharr_row`].
+/// One template row on whole pixels: intensities and Scharr derivatives, as [`crate::dsp::runs::scharr_row`].
 #[inline(never)]
 fn pixel_row(
     up: &[i16],

@@ -12,7 +12,7 @@
 //! that a full derivative image would cost in RAM.
 //!
 //! The window loops ([`Loops`]) are [`super::rows`] on every target; the tests hold them to an
-//! independent implementation, [`super::flat`] (rows padded to vector widths, flat loops), bit
+//! independent implementation, `super::flat` (built for the tests only; rows padded to vector widths, flat loops), bit
 //! for bit.
 
 use super::correlation::Correlations;

@@ -3,7 +3,7 @@
 use super::Downsample;
 use crate::frame::ImageView;
 
-/// [`PyramidFilter::Box`]: each output pixel is `avg(avg(a, c), avg(b, d))` of its 2 x 2
+/// [`super::PyramidFilter::Box`]: each output pixel is `avg(avg(a, c), avg(b, d))` of its 2 x 2
 /// block `[a b; c d]`, with `avg` the truncating halving add; four output pixels per pair of
 /// source words with [`crate::dsp::uhadd8`].
 pub(super) struct BoxMean;

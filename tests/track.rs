@@ -456,8 +456,8 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     );
 
     assert_eq!(on.hidden_live, 0, "a covered background track lived on");
-    // Measured: 98.9 % of 8664 track-frames within 2 px, and 98.8 % of 86 at frame 100.
-    assert!(on.within_2px >= 0.98);
+    // Measured: 99.3 % of 8743 track-frames within 2 px, and 98.8 % of 86 at frame 100.
+    assert!(on.within_2px >= 0.99);
     assert!(on.final_within_2px >= 0.97);
     // Nothing dragged along: an occluder carries a track tens of pixels.
     assert!(on.worst < 10.0, "worst error {:.1} px", on.worst);

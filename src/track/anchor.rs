@@ -9,6 +9,16 @@
 //! it. The correlation is zero-mean and normalised, so lighting changes do not matter, and the
 //! patch is sparse so that the slow change of a feature under rotation and zoom matters little.
 //!
+//! What a correct track's patch correlates with its anchor depends on the feature and the
+//! camera, not on a constant: a fine texture (grass, gravel, a real sensor's aliasing and
+//! noise) already decorrelates from itself when sampled a fraction of a pixel off, as every
+//! step of a track samples it at another sub-pixel phase. So the anchor measures that once, at
+//! birth (its patch against itself half a pixel off, across and down), and the gate asks for
+//! the threshold times it ([`Anchor::matches`]): a smooth feature is held to the threshold, a
+//! fine one to what resampling leaves it. Only while the image has not turned or zoomed since
+//! the anchor was taken: on a turning image LK's translation drifts a little every frame, and
+//! the full threshold is what stops it.
+//!
 //! The same slack lets a window drift: LK's sub-pixel errors add up over hundreds of frames,
 //! and a patch a pixel or two off its feature still correlates above the gate on smooth
 //! texture. So the tracker also locates the anchor itself around an older track's position
@@ -30,6 +40,15 @@ const SPACING_SHIFT: u32 = 1;
 /// Pixels per side under the patch, with the last samples' right and lower neighbours.
 const PATCH_SPAN: usize = ((SIDE - 1) << SPACING_SHIFT) + 2;
 
+/// How far off, px, a patch is sampled at birth to measure how much its texture changes when
+/// sampled at another sub-pixel phase: half a pixel, the farthest a phase can be from another.
+const RESAMPLING_SHIFT: Q16 = Q16::from_bits(1 << 15);
+
+/// The least share of the gate's correlation that fine texture may take away, as a square (a
+/// factor of 1/2): a patch that decorrelates more than that from itself half a pixel off is
+/// mostly noise, and a track on it is judged as on a patch of half that correlation.
+const MIN_EXPECTED_SQ: f32 = 0.25;
+
 /// Every sample of the patch, one bit each.
 const ALL_SAMPLES: u64 = (1 << SAMPLES) - 1;
 
@@ -44,6 +63,10 @@ pub(super) struct Anchor {
     samples: [u8; SAMPLES],
     /// How the image has turned and zoomed since: the patch is sampled turned as much.
     turned: Turn,
+    /// The squared correlation of the patch with itself sampled [`RESAMPLING_SHIFT`] off
+    /// (the lower of across and down, 0 when negative): what resampling alone leaves a
+    /// correct track of this texture.
+    resampled_sq: f32,
 }
 
 impl Anchor {
@@ -51,9 +74,18 @@ impl Anchor {
     pub(super) fn capture(frame: &ImageView<'_>, position: Point) -> Self {
         let (fine, _) = patch(frame, position);
         // Grey x 16 rounded to grey: 49 bytes a track.
+        let samples = fine.map(|v| (v.saturating_add(8) >> 4).min(255) as u8);
+        let shift = RESAMPLING_SHIFT;
+        let across = Point::new(position.x.saturating_add(shift), position.y);
+        let down = Point::new(position.x, position.y.saturating_add(shift));
+        let resampled_sq = [across, down]
+            .map(|off| Moments::of(&samples, &patch(frame, off).0).correlation_sq())
+            .into_iter()
+            .fold(1.0f32, f32::min);
         Self {
-            samples: fine.map(|v| (v.saturating_add(8) >> 4).min(255) as u8),
+            samples,
             turned: Turn::NONE,
+            resampled_sq,
         }
     }
 
@@ -85,8 +117,10 @@ impl Anchor {
     }
 
     /// True when the patch of `frame` around `position` correlates with the anchor by at
-    /// least `min_correlation` (zero-mean normalised cross-correlation, `-1..=1`). A patch
-    /// without any contrast matches nothing: whatever the feature was, it is gone.
+    /// least `min_correlation` (zero-mean normalised cross-correlation, `-1..=1`) times what
+    /// resampling alone leaves a correct track of the anchor's texture (see the module
+    /// documentation). A patch without any contrast matches nothing: whatever the feature
+    /// was, it is gone.
     pub(super) fn matches(
         &self,
         frame: &ImageView<'_>,
@@ -102,9 +136,17 @@ impl Anchor {
         if var_a == 0 || var_b == 0 {
             return false;
         }
-        // corr >= t  <=>  cov * |cov| >= t * |t| * var_a * var_b, without a square root.
         let (cov, va, vb) = (covariance as f32, var_a as f32, var_b as f32);
-        cov * cov.abs() >= min_correlation * min_correlation.abs() * va * vb
+        // Where the image turned or zoomed since the anchor was taken, LK's translation drifts a
+        // little every frame and this gate is what stops it: there it keeps its threshold.
+        let expected_sq = if self.turned.is_negligible() {
+            self.resampled_sq.max(MIN_EXPECTED_SQ)
+        } else {
+            1.0
+        };
+        // corr >= t  <=>  cov * |cov| >= t * |t| * var_a * var_b, without a square root.
+        let gate = min_correlation * min_correlation.abs() * expected_sq;
+        cov * cov.abs() >= gate * va * vb
     }
 
     /// Where the anchor's feature is in `frame`, searched from `start`: the position whose
@@ -321,6 +363,15 @@ struct Moments {
 }
 
 impl Moments {
+    /// The correlation's square with its sign, `-1..=1`; 0 when either side has no contrast.
+    fn correlation_sq(&self) -> f32 {
+        let (cov, va, vb) = (self.covariance as f32, self.var_a as f32, self.var_b as f32);
+        if va <= 0.0 || vb <= 0.0 {
+            return 0.0;
+        }
+        (cov * cov.abs() / (va * vb)).clamp(0.0, 1.0)
+    }
+
     // Bounded as the type's documentation shows: no operation here can overflow.
     #[allow(clippy::arithmetic_side_effects)]
     fn of(a: &[u8; SAMPLES], b: &[u16; SAMPLES]) -> Self {
@@ -500,6 +551,38 @@ mod tests {
         let anchor = Anchor::capture(&frame, Point::from_f32(20.0, 20.0));
         assert!(anchor.matches(&frame, Point::from_f32(20.0, 20.0), 0.999));
         assert!(!anchor.matches(&frame, Point::from_f32(23.0, 20.0), 0.5));
+    }
+
+    #[test]
+    fn a_fine_texture_is_held_to_what_resampling_leaves_it() {
+        // A texture of independent pixels (as noise and aliasing make real fine texture):
+        // half a pixel off, its patch correlates with itself near 1/√2; the blobs are smooth
+        // and barely change.
+        let fine: [u8; 40 * 40] = core::array::from_fn(|i| {
+            let hashed = (i as u32).wrapping_mul(2_654_435_761).rotate_right(13);
+            (hashed % 251) as u8
+        });
+        let smooth = blobs(0.0);
+        let fine = ImageView::packed(&fine, 40, 40).unwrap();
+        let smooth = ImageView::packed(&smooth, 48, 48).unwrap();
+        let (at, half_off) = (Point::from_f32(20.0, 20.0), Point::from_f32(20.5, 20.0));
+        let fine_anchor = Anchor::capture(&fine, at);
+        let smooth_anchor = Anchor::capture(&smooth, at);
+        assert!(
+            fine_anchor.resampled_sq < 0.7,
+            "{}",
+            fine_anchor.resampled_sq
+        );
+        assert!(
+            smooth_anchor.resampled_sq > 0.9,
+            "{}",
+            smooth_anchor.resampled_sq
+        );
+        // Sampled at another phase it correlates below √0.7 ≈ 0.84 with its anchor, yet passes
+        // a gate of 0.95, held to what resampling leaves it; three pixels off, it still fails
+        // a gate of 0.5.
+        assert!(fine_anchor.matches(&fine, half_off, 0.95));
+        assert!(!fine_anchor.matches(&fine, Point::from_f32(23.0, 20.0), 0.5));
     }
 
     #[test]

@@ -142,8 +142,11 @@ pub struct TrackerConfig {
     /// less than this with its neighbourhood in its first frame is dropped (zero-mean
     /// normalised cross-correlation, so lighting does not matter). It catches a window that
     /// slides off its feature a little every frame, as when an occluder's edge pushes it:
-    /// each step matches its previous frame, so no other gate sees it. At most 1; -1 turns it
-    /// off.
+    /// each step matches its previous frame, so no other gate sees it. A fine texture (grass,
+    /// gravel, a sensor's noise and aliasing) decorrelates from itself when sampled at another
+    /// sub-pixel phase, as every step samples it: while the image has not turned since its
+    /// birth, a track is held to this times what its own patch keeps half a pixel off (at
+    /// least half of it), measured at birth. At most 1; -1 turns it off.
     pub min_correlation: f32,
     /// Relocation period, frames: every this many frames, a track at least
     /// [`TrackerConfig::relocate_from_age`] frames old is moved to where its birth patch (the

@@ -44,6 +44,7 @@
     )
 )]
 
+mod config_error;
 pub mod dense;
 pub mod detect;
 // The one module allowed `unsafe`: its `asm!` blocks are single DSP instructions that read and
@@ -88,6 +89,7 @@ pub mod q16;
 pub mod sensor;
 pub mod track;
 
+pub use config_error::{Bound, ConfigError};
 pub use frame::ImageView;
 pub use pyramid::Pyramid;
 pub use q16::{Point, Q16};

@@ -6,8 +6,9 @@ use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{
     scratch_len, Illumination, LkError, LkParams, LucasKanade, PointTrack, TrackStatus,
 };
-use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
+use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
+use kestrel::{Bound, ConfigError};
 
 /// A smooth, textured test image shifted by (`dx`, `dy`): a few sinusoids, values in 20..235.
 fn texture(w: usize, h: usize, dx: f32, dy: f32) -> Vec<u8> {
@@ -237,47 +238,50 @@ fn initial_guess_reaches_beyond_the_pyramid() {
 #[test]
 fn bad_parameters_are_errors() {
     let base = LkParams::default();
+    let window = ("window", Bound::OddRange { min: 3, max: 63 });
+    let epsilon = ("epsilon", Bound::FiniteNonNegative);
     let cases = [
-        (LkParams { window: 20, ..base }, LkError::BadWindow),
-        (LkParams { window: 65, ..base }, LkError::BadWindow),
-        (LkParams { window: 1, ..base }, LkError::BadWindow),
+        (LkParams { window: 20, ..base }, window),
+        (LkParams { window: 65, ..base }, window),
+        (LkParams { window: 1, ..base }, window),
         (
             LkParams {
                 max_level: 8,
                 ..base
             },
-            LkError::BadLevel,
+            ("max_level", Bound::AtMost(7)),
         ),
         (
             LkParams {
                 max_iterations: 0,
                 ..base
             },
-            LkError::ZeroIterations,
+            ("max_iterations", Bound::AtLeast(1)),
         ),
         (
             LkParams {
                 epsilon: f32::NAN,
                 ..base
             },
-            LkError::BadEpsilon,
+            epsilon,
         ),
         (
             LkParams {
                 epsilon: -1.0,
                 ..base
             },
-            LkError::BadEpsilon,
+            epsilon,
         ),
         (
             LkParams {
                 min_eigen_threshold: f32::INFINITY,
                 ..base
             },
-            LkError::BadEigenThreshold,
+            ("min_eigen_threshold", Bound::FiniteNonNegative),
         ),
     ];
-    for (params, error) in cases {
+    for (params, (field, bound)) in cases {
+        let error = ConfigError { field, bound };
         assert_eq!(LucasKanade::new(params).unwrap_err(), error, "{params:?}");
     }
 }
@@ -297,7 +301,10 @@ fn bad_buffers_are_errors() {
     let mut short = vec![0u8; pyramid_storage_len(10, 10, 2) - 1];
     assert_eq!(
         Pyramid::build(frame, 2, &mut short).unwrap_err(),
-        PyramidError::StorageTooSmall
+        ConfigError {
+            field: "storage",
+            bound: Bound::MinLen(pyramid_storage_len(10, 10, 2))
+        }
     );
 
     let other = vec![0u8; 12 * 10];
@@ -315,7 +322,10 @@ fn bad_buffers_are_errors() {
     assert_eq!(
         lk.track_point(&prev, &prev, p, None, &mut small)
             .unwrap_err(),
-        LkError::ScratchTooSmall
+        LkError::Config(ConfigError {
+            field: "scratch",
+            bound: Bound::MinLen(scratch_len(21))
+        })
     );
     let mut out = vec![PointTrack::default(); 2];
     assert_eq!(

@@ -548,7 +548,6 @@ fn small_config() -> TrackerConfig {
 fn bad_settings_are_refused_when_the_tracker_is_made() {
     use kestrel::detect::DetectError;
     use kestrel::detect::{Grid, ShiTomasi};
-    use kestrel::lk::LkError;
     use kestrel::track::Detector;
 
     let base = small_config();
@@ -638,7 +637,10 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
                 },
                 ..base
             },
-            TrackerError::Lk(LkError::BadWindow),
+            TrackerError::Config(kestrel::ConfigError {
+                field: "lk.window",
+                bound: kestrel::Bound::OddRange { min: 3, max: 63 },
+            }),
         ),
         (
             TrackerConfig {

@@ -2,8 +2,8 @@
 
 use super::agreement::agreement;
 use super::fill::fill_invalid;
-use super::DenseError;
-use crate::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
+use super::{lk_refusal, DenseError};
+use crate::lk::{scratch_len, LkParams, LucasKanade, TrackStatus, LK_PATHS};
 use crate::pyramid::{level_size, Pyramid};
 use crate::q16::Point;
 
@@ -548,7 +548,8 @@ impl DenseFlow {
         if !(0.0..=1.0).contains(&params.camera_tolerance) {
             return Err(DenseError::BadThreshold);
         }
-        let lk = LucasKanade::new(params.lk).map_err(DenseError::Lk)?;
+        let lk =
+            LucasKanade::new(params.lk).map_err(|e| DenseError::Config(e.nested(&LK_PATHS)))?;
         let fine = lk.with_max_level(0);
         // In 0..=256 after the check above: the cast neither truncates nor saturates.
         #[allow(clippy::cast_possible_truncation)]
@@ -790,7 +791,7 @@ impl DenseFlow {
                 let step = self
                     .fine
                     .track_point(prev, next, start, Some(guess), scratch)
-                    .map_err(DenseError::Lk)?;
+                    .map_err(lk_refusal)?;
                 let (px, py) = step.position.to_f32();
                 let (gx, gy) = guess.to_f32();
                 let near =
@@ -807,7 +808,7 @@ impl DenseFlow {
             None => self
                 .lk
                 .track_point(prev, next, start, None, scratch)
-                .map_err(DenseError::Lk)?,
+                .map_err(lk_refusal)?,
         };
         Ok(match track.status {
             TrackStatus::Tracked if track.residual.to_num::<f32>() > self.params.max_residual => {
@@ -899,7 +900,10 @@ mod tests {
         assert_eq!(dense(0, 9, 0).unwrap_err(), DenseError::ZeroCell);
         assert_eq!(
             dense(8, 10, 0).unwrap_err(),
-            DenseError::Lk(crate::lk::LkError::BadWindow)
+            DenseError::Config(crate::ConfigError::new(
+                "lk.window",
+                crate::Bound::OddRange { min: 3, max: 63 }
+            ))
         );
         assert_eq!(
             ok.compute(&p, &p, &mut nodes[..10], &mut scratch),

@@ -125,6 +125,7 @@ pub use smooth::{
 };
 
 use crate::lk::LkError;
+use crate::ConfigError;
 
 /// Why dense flow or motion detection could not run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -154,8 +155,17 @@ pub enum DenseError {
     /// The outline's side is outside [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`], or its reach
     /// above [`OUTLINE_MAX_REACH`].
     BadOutline,
-    /// The LK parameters were refused.
-    Lk(LkError),
+    /// A setting or buffer was refused.
+    Config(ConfigError),
+}
+
+/// A per-node LK refusal: never expected, since [`DenseFlow::compute`] checks the frames and
+/// the scratch first; a point at a time has no slices to differ in length.
+pub(crate) fn lk_refusal(e: LkError) -> DenseError {
+    match e {
+        LkError::Config(e) => DenseError::Config(e),
+        LkError::FrameSizeMismatch | LkError::LengthMismatch => DenseError::FrameSizeMismatch,
+    }
 }
 
 impl core::fmt::Display for DenseError {
@@ -180,7 +190,7 @@ impl core::fmt::Display for DenseError {
                 f.write_str("thresholds must be finite numbers >= 0 (smoothing gates below 32768 px)")
             }
             DenseError::BadOutline => f.write_str("outline side must be 8 to 255 px and reach at most 128 px"),
-            DenseError::Lk(e) => write!(f, "tracker parameters: {e}"),
+            DenseError::Config(e) => e.fmt(f),
         }
     }
 }

@@ -48,9 +48,11 @@ mod template;
 mod wide;
 mod window;
 
+use crate::config_error::bound_number;
 use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
+use crate::{Bound, ConfigError};
 use correlation::Correlations;
 use template::{Step, Template, TemplateError};
 use window::{Loops, TemplateBuffers, TemplateOut, WindowOrigin};
@@ -61,6 +63,16 @@ type NativeLoops = rows::Rows;
 
 /// The largest window side accepted.
 pub const MAX_WINDOW: usize = 63;
+
+/// The fields [`LucasKanade::new`] checks, as paths from settings that hold an [`LkParams`] in
+/// a field named `lk` (the tracker's and the dense grid's): their refusals are named so.
+pub(crate) const LK_PATHS: [&str; 5] = [
+    "lk.window",
+    "lk.max_level",
+    "lk.max_iterations",
+    "lk.epsilon",
+    "lk.min_eigen_threshold",
+];
 
 /// `i16` scratch values one point needs for a `window` x `window` window.
 ///
@@ -215,22 +227,32 @@ impl Default for LkParams {
     }
 }
 
-/// Why tracking could not run at all (per-point problems are a [`TrackStatus`] instead).
+/// Why a tracking call could not run at all (per-point problems are a [`TrackStatus`]
+/// instead; refused settings are [`LucasKanade::new`]'s [`ConfigError`]).
+///
+/// ```
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade};
+/// use kestrel::pyramid::Pyramid;
+/// use kestrel::{Bound, ConfigError, Point};
+/// let (small, large) = ([0u8; 16 * 16], [0u8; 32 * 32]);
+/// let a = Pyramid::build(ImageView::packed(&small, 16, 16).unwrap(), 0, &mut []).unwrap();
+/// let b = Pyramid::build(ImageView::packed(&large, 32, 32).unwrap(), 0, &mut []).unwrap();
+/// let lk = LucasKanade::new(LkParams { window: 7, ..LkParams::default() }).unwrap();
+/// let p = Point::from_f32(8.0, 8.0);
+/// let mut scratch = [0i16; scratch_len(7)];
+/// assert_eq!(lk.track_point(&a, &b, p, None, &mut scratch), Err(LkError::FrameSizeMismatch));
+/// // The scratch is sized once for the window, like a setting.
+/// let short = lk.track_point(&a, &a, p, None, &mut scratch[..10]).unwrap_err();
+/// let needed = ConfigError { field: "scratch", bound: Bound::MinLen(scratch_len(7)) };
+/// assert_eq!(short, LkError::Config(needed));
+/// assert_eq!(short.to_string(), "scratch must hold at least 473 elements");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LkError {
-    /// The window is even, smaller than 3 or larger than [`MAX_WINDOW`].
-    BadWindow,
-    /// `max_level` is larger than [`crate::pyramid::MAX_LEVEL`].
-    BadLevel,
-    /// `max_iterations` is zero.
-    ZeroIterations,
-    /// `epsilon` is negative, NaN or infinite.
-    BadEpsilon,
-    /// `min_eigen_threshold` is negative, NaN or infinite.
-    BadEigenThreshold,
-    /// The scratch buffer is shorter than [`scratch_len`] for the window.
-    ScratchTooSmall,
+    /// The scratch buffer is shorter than [`scratch_len`] for the window (`"scratch"`).
+    Config(ConfigError),
     /// The two pyramids were built from frames of different sizes.
     FrameSizeMismatch,
     /// Output or guess slices do not have one entry per point.
@@ -239,16 +261,11 @@ pub enum LkError {
 
 impl core::fmt::Display for LkError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            LkError::BadWindow => "window must be odd and between 3 and 63",
-            LkError::BadLevel => "max level must be at most 7",
-            LkError::ZeroIterations => "max iterations must be at least 1",
-            LkError::BadEpsilon => "epsilon must be a finite number >= 0",
-            LkError::BadEigenThreshold => "min eigen threshold must be a finite number >= 0",
-            LkError::ScratchTooSmall => "scratch buffer is smaller than scratch_len(window)",
-            LkError::FrameSizeMismatch => "previous and next frames differ in size",
-            LkError::LengthMismatch => "points, guesses and outputs differ in length",
-        })
+        match self {
+            LkError::Config(e) => e.fmt(f),
+            LkError::FrameSizeMismatch => f.write_str("previous and next frames differ in size"),
+            LkError::LengthMismatch => f.write_str("points, guesses and outputs differ in length"),
+        }
     }
 }
 
@@ -307,30 +324,42 @@ pub struct LucasKanade {
 }
 
 impl LucasKanade {
-    /// Validates `params`.
+    /// Validates `params`; a refusal names the field (`"window"`, `"max_level"`,
+    /// `"max_iterations"`, `"epsilon"`, `"min_eigen_threshold"`) and its bound.
     ///
     /// ```
-    /// use kestrel::lk::{LkError, LkParams, LucasKanade};
+    /// use kestrel::lk::{LkParams, LucasKanade};
+    /// use kestrel::{Bound, ConfigError};
     /// assert!(LucasKanade::new(LkParams::default()).is_ok());
     /// let even = LkParams { window: 20, ..LkParams::default() };
-    /// assert_eq!(LucasKanade::new(even).unwrap_err(), LkError::BadWindow);
+    /// let refused = LucasKanade::new(even).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "window", bound: Bound::OddRange { min: 3, max: 63 } });
+    /// assert_eq!(refused.to_string(), "window must be odd, 3 to 63");
+    /// let nan = LkParams { epsilon: f32::NAN, ..LkParams::default() };
+    /// assert_eq!(LucasKanade::new(nan).unwrap_err().to_string(), "epsilon must be a finite number >= 0");
     /// ```
-    pub fn new(params: LkParams) -> Result<Self, LkError> {
+    pub fn new(params: LkParams) -> Result<Self, ConfigError> {
         if params.window < 3 || params.window > MAX_WINDOW || params.window % 2 == 0 {
-            return Err(LkError::BadWindow);
+            let bound = Bound::OddRange {
+                min: 3,
+                max: bound_number(MAX_WINDOW),
+            };
+            return Err(ConfigError::new("window", bound));
         }
         if params.max_level > crate::pyramid::MAX_LEVEL {
-            return Err(LkError::BadLevel);
+            let bound = Bound::AtMost(bound_number(crate::pyramid::MAX_LEVEL));
+            return Err(ConfigError::new("max_level", bound));
         }
         if params.max_iterations == 0 {
-            return Err(LkError::ZeroIterations);
+            return Err(ConfigError::new("max_iterations", Bound::AtLeast(1)));
         }
         if !params.epsilon.is_finite() || params.epsilon < 0.0 {
-            return Err(LkError::BadEpsilon);
+            return Err(ConfigError::new("epsilon", Bound::FiniteNonNegative));
         }
         let threshold = params.min_eigen_threshold;
         if !threshold.is_finite() || threshold < 0.0 {
-            return Err(LkError::BadEigenThreshold);
+            let bound = Bound::FiniteNonNegative;
+            return Err(ConfigError::new("min_eigen_threshold", bound));
         }
         let epsilon = (params.epsilon.min(1000.0) * 65536.0) as i64;
         // OpenCV's threshold applies to λ_min(G) / (2^20 * area) with G in our integer scale.
@@ -394,8 +423,9 @@ impl LucasKanade {
         next: &Pyramid<'_>,
         scratch: &[i16],
     ) -> Result<(), LkError> {
-        if scratch.len() < scratch_len(self.params.window) {
-            return Err(LkError::ScratchTooSmall);
+        let needed = scratch_len(self.params.window);
+        if scratch.len() < needed {
+            return Err(LkError::Config(ConfigError::min_len("scratch", needed)));
         }
         if !prev.base().same_size(&next.base()) {
             return Err(LkError::FrameSizeMismatch);

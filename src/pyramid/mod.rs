@@ -10,32 +10,12 @@
 //! four halving adds per eight pixels with the Cortex-M4's UHADD8, a small fraction of the
 //! Gaussian's cost, for a little more aliasing on the coarse levels.
 
-use crate::frame::{ImageError, ImageView};
+use crate::config_error::bound_number;
+use crate::frame::ImageView;
+use crate::{Bound, ConfigError};
 
 /// The deepest pyramid Kestrel builds: levels `0..=MAX_LEVEL`.
 pub const MAX_LEVEL: usize = 7;
-
-/// Why a pyramid could not be built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PyramidError {
-    /// More levels were requested than [`MAX_LEVEL`].
-    TooManyLevels,
-    /// The storage is shorter than [`pyramid_storage_len`] for this frame and level count.
-    StorageTooSmall,
-    /// A level view could not be formed (never expected for a valid level 0).
-    Image(ImageError),
-}
-
-impl core::fmt::Display for PyramidError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            PyramidError::TooManyLevels => f.write_str("more than 7 pyramid levels requested"),
-            PyramidError::StorageTooSmall => f.write_str("pyramid storage is too small"),
-            PyramidError::Image(e) => write!(f, "pyramid level: {e}"),
-        }
-    }
-}
 
 /// Width or height of pyramid level `level` for a level-0 size `size`: halved, rounded up.
 ///
@@ -134,12 +114,27 @@ pub enum PyramidFilter {
 impl<'a> Pyramid<'a> {
     /// Builds levels `1..=max_level` of `frame` into `storage` with the Gaussian filter.
     ///
-    /// `storage` must hold at least [`pyramid_storage_len`]`(width, height, max_level)` bytes.
+    /// `max_level` is at most [`MAX_LEVEL`], and `storage` holds at least
+    /// [`pyramid_storage_len`]`(width, height, max_level)` bytes; otherwise the refusal names
+    /// `"max_level"` or `"storage"`.
+    ///
+    /// ```
+    /// use kestrel::frame::ImageView;
+    /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+    /// use kestrel::{Bound, ConfigError};
+    /// let pixels = [0u8; 16];
+    /// let frame = ImageView::packed(&pixels, 4, 4).unwrap();
+    /// let refused = Pyramid::build(frame, 1, &mut [0u8; 3]).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "storage", bound: Bound::MinLen(4) });
+    /// assert_eq!(refused.to_string(), "storage must hold at least 4 elements");
+    /// let deep = Pyramid::build(frame, 8, &mut [0u8; 64]).unwrap_err();
+    /// assert_eq!(deep.to_string(), "max_level must be at most 7");
+    /// ```
     pub fn build(
         frame: ImageView<'a>,
         max_level: usize,
         storage: &'a mut [u8],
-    ) -> Result<Self, PyramidError> {
+    ) -> Result<Self, ConfigError> {
         Self::build_with(frame, max_level, PyramidFilter::Gaussian, storage)
     }
 
@@ -160,8 +155,8 @@ impl<'a> Pyramid<'a> {
         max_level: usize,
         filter: PyramidFilter,
         storage: &'a mut [u8],
-    ) -> Result<Self, PyramidError> {
-        Self::check(&frame, max_level, storage.len())?;
+    ) -> Result<Self, ConfigError> {
+        let needed = Self::check(&frame, max_level, storage.len())?;
         let mut levels = [None; MAX_LEVEL + 1];
         levels[0] = Some(frame);
         let mut finer = frame;
@@ -174,7 +169,7 @@ impl<'a> Pyramid<'a> {
                 PyramidFilter::Gaussian => Gaussian::downsample(&finer, buf, w, h),
                 PyramidFilter::Box => BoxMean::downsample(&finer, buf, w, h),
             }
-            let coarser = ImageView::packed(buf, w, h).map_err(PyramidError::Image)?;
+            let coarser = level_view(buf, w, h, needed)?;
             *slot = Some(coarser);
             finer = coarser;
         }
@@ -203,8 +198,8 @@ impl<'a> Pyramid<'a> {
         frame: ImageView<'a>,
         max_level: usize,
         storage: &'a [u8],
-    ) -> Result<Self, PyramidError> {
-        Self::check(&frame, max_level, storage.len())?;
+    ) -> Result<Self, ConfigError> {
+        let needed = Self::check(&frame, max_level, storage.len())?;
         let mut levels = [None; MAX_LEVEL + 1];
         levels[0] = Some(frame);
         let mut rest = storage;
@@ -212,7 +207,7 @@ impl<'a> Pyramid<'a> {
             let (w, h) = (level_size(frame.width(), l), level_size(frame.height(), l));
             let (buf, tail) = rest.split_at(w * h);
             rest = tail;
-            *slot = Some(ImageView::packed(buf, w, h).map_err(PyramidError::Image)?);
+            *slot = Some(level_view(buf, w, h, needed)?);
         }
         Ok(Self {
             base: frame,
@@ -221,14 +216,21 @@ impl<'a> Pyramid<'a> {
         })
     }
 
-    fn check(frame: &ImageView<'_>, max_level: usize, storage: usize) -> Result<(), PyramidError> {
+    /// Checks the level count and the storage's length, and returns the length needed.
+    fn check(
+        frame: &ImageView<'_>,
+        max_level: usize,
+        storage: usize,
+    ) -> Result<usize, ConfigError> {
         if max_level > MAX_LEVEL {
-            return Err(PyramidError::TooManyLevels);
+            let bound = Bound::AtMost(bound_number(MAX_LEVEL));
+            return Err(ConfigError::new("max_level", bound));
         }
-        if storage < pyramid_storage_len(frame.width(), frame.height(), max_level) {
-            return Err(PyramidError::StorageTooSmall);
+        let needed = pyramid_storage_len(frame.width(), frame.height(), max_level);
+        if storage < needed {
+            return Err(ConfigError::min_len("storage", needed));
         }
-        Ok(())
+        Ok(needed)
     }
 
     /// Index of the coarsest level.
@@ -270,6 +272,14 @@ impl<'a> Pyramid<'a> {
     pub fn base(&self) -> ImageView<'a> {
         self.base
     }
+}
+
+/// The view of one coarser level, `w` x `h` pixels in `buf`. It cannot be refused: `w` and `h`
+/// are those of a level of a valid frame (1 to [`crate::frame::MAX_DIMENSION`]) and `buf` is
+/// `w * h` bytes of a storage of at least `needed` bytes; were it ever refused, the storage is
+/// what could not hold it.
+fn level_view(buf: &[u8], w: usize, h: usize, needed: usize) -> Result<ImageView<'_>, ConfigError> {
+    ImageView::packed(buf, w, h).map_err(|_| ConfigError::min_len("storage", needed))
 }
 
 /// Logs the base frame's geometry and the depth, not the levels' pixels.
@@ -520,12 +530,16 @@ mod tests {
         let mut small = [0u8; 3];
         assert_eq!(
             Pyramid::build(frame, 1, &mut small).unwrap_err(),
-            PyramidError::StorageTooSmall
+            ConfigError::min_len("storage", 4)
         );
         let mut big = [0u8; 64];
         assert_eq!(
             Pyramid::build(frame, 8, &mut big).unwrap_err(),
-            PyramidError::TooManyLevels
+            ConfigError::new("max_level", Bound::AtMost(7))
+        );
+        assert_eq!(
+            Pyramid::from_storage(frame, 2, &small).unwrap_err(),
+            ConfigError::min_len("storage", 5)
         );
     }
 

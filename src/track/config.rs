@@ -2,9 +2,10 @@
 
 use super::TrackerError;
 use crate::detect::{Fast, Grid, ShiTomasi};
-use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement};
+use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement, LK_PATHS};
 use crate::pyramid::{PyramidFilter, MAX_LEVEL};
 use crate::q16::Q16;
+use crate::ConfigError;
 
 /// The corner detector that starts new tracks.
 ///
@@ -310,7 +311,8 @@ impl TrackerConfig {
 
     /// Checks every setting for a tracker of capacity `capacity`.
     pub(super) fn validate(&self, capacity: usize) -> Result<Checked, TrackerError> {
-        let lk = LucasKanade::new(self.lk).map_err(TrackerError::Lk)?;
+        let lk_refused = |e: ConfigError| TrackerError::Config(e.nested(&LK_PATHS));
+        let lk = LucasKanade::new(self.lk).map_err(lk_refused)?;
         if self.max_tracks == 0 || self.max_tracks > capacity {
             return Err(TrackerError::BadMaxTracks);
         }
@@ -340,7 +342,7 @@ impl TrackerConfig {
             min_eigen_threshold: self.lk.min_eigen_threshold.max(BIRTH_MIN_EIGEN),
             ..self.lk
         })
-        .map_err(TrackerError::Lk)?;
+        .map_err(lk_refused)?;
         let max_shift_sq = gate(self.max_relocation)
             .ok_or(TrackerError::BadMaxRelocation)?
             .map_or(i64::MAX, squared_bits);

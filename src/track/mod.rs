@@ -87,8 +87,9 @@ pub use config::{Detector, TrackerConfig, BIRTH_MIN_EIGEN};
 use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::lk::{scratch_len, LkError};
-use crate::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
+use crate::pyramid::{pyramid_storage_len, Pyramid};
 use crate::q16::{Point, Q16};
+use crate::ConfigError;
 use anchor::Anchor;
 use buffers::StorageParts;
 use config::Checked;
@@ -219,8 +220,8 @@ impl FrameReport {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TrackerError {
-    /// The LK settings are invalid.
-    Lk(LkError),
+    /// A setting or buffer was refused.
+    Config(ConfigError),
     /// The detector or grid settings are invalid.
     Detect(DetectError),
     /// `max_tracks` is 0 or larger than the tracker's capacity `N`.
@@ -257,14 +258,12 @@ pub enum TrackerError {
     NotStarted,
     /// The previous frame given is not the frame given last: its size or pixels differ.
     NotThePreviousFrame,
-    /// A pyramid could not be built (never expected once the buffers were accepted).
-    Pyramid(PyramidError),
 }
 
 impl core::fmt::Display for TrackerError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            TrackerError::Lk(e) => write!(f, "tracker LK settings: {e}"),
+            TrackerError::Config(e) => e.fmt(f),
             TrackerError::Detect(e) => write!(f, "tracker detector settings: {e}"),
             TrackerError::BadMaxTracks => f.write_str("max tracks must be 1 to the capacity"),
             TrackerError::BadRefillThreshold => {
@@ -303,7 +302,6 @@ impl core::fmt::Display for TrackerError {
             TrackerError::NotThePreviousFrame => {
                 f.write_str("previous frame is not the frame given last")
             }
-            TrackerError::Pyramid(e) => write!(f, "tracker pyramid: {e}"),
         }
     }
 }
@@ -430,7 +428,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         } = buffers::split_storage(self.buffers.storage, self.width, self.height, levels);
         let storage = if half == 0 { first } else { second };
         Pyramid::build_with(frame, levels, self.config.pyramid, storage)
-            .map_err(TrackerError::Pyramid)?;
+            .map_err(TrackerError::Config)?;
 
         // A restart ends the previous frame's tracks; they are not counted as dropped.
         self.set.clear();
@@ -513,9 +511,9 @@ impl<'a, const N: usize> Tracker<'a, N> {
             (second, first)
         };
         let prev_pyramid =
-            Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
+            Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Config)?;
         let next_pyramid = Pyramid::build_with(next, levels, self.config.pyramid, new)
-            .map_err(TrackerError::Pyramid)?;
+            .map_err(TrackerError::Config)?;
         stage_ended(TrackerStage::Pyramid);
 
         let mut report = FrameReport::default();
@@ -532,7 +530,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 self.buffers.lk_scratch,
                 &mut report,
             )
-            .map_err(TrackerError::Lk)?;
+            .map_err(lk_refusal)?;
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill_below {
@@ -598,8 +596,8 @@ impl<'a, const N: usize> Tracker<'a, N> {
         } else {
             (first, second)
         };
-        let prev = Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Pyramid)?;
-        let next = Pyramid::from_storage(next, levels, new).map_err(TrackerError::Pyramid)?;
+        let prev = Pyramid::from_storage(prev, levels, old).map_err(TrackerError::Config)?;
+        let next = Pyramid::from_storage(next, levels, new).map_err(TrackerError::Config)?;
         Ok((prev, next))
     }
 
@@ -828,7 +826,7 @@ fn start_tracks(
         fast_rows,
     } = buffers::split_storage(buffers.storage, size.0, size.1, levels);
     let storage = if half == 0 { first } else { second };
-    let pyramid = Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Pyramid)?;
+    let pyramid = Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Config)?;
     let Some(level_image) = pyramid.level(config.detect_level) else {
         return Ok(());
     };
@@ -870,10 +868,22 @@ fn newborn(
     let still = checked
         .texture_check
         .track_point(pyramid, pyramid, position, None, lk_scratch)
-        .map_err(TrackerError::Lk)?;
+        .map_err(lk_refusal)?;
     Ok(still
         .is_tracked()
         .then(|| Anchor::capture(&pyramid.base(), position)))
+}
+
+/// An LK refusal while following or starting tracks: never expected, since [`Tracker::new`]
+/// checked the LK scratch and every pyramid is of the tracker's frame size.
+fn lk_refusal(e: LkError) -> TrackerError {
+    match e {
+        LkError::Config(e) => TrackerError::Config(ConfigError {
+            field: "buffers.lk_scratch",
+            ..e
+        }),
+        LkError::FrameSizeMismatch | LkError::LengthMismatch => TrackerError::FrameSizeMismatch,
+    }
 }
 
 /// Where new tracks may be born, how many, and by which rules.

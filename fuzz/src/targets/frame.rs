@@ -8,7 +8,8 @@
 
 use arbitrary::Arbitrary;
 use kestrel::frame::{ImageError, ImageView, MAX_DIMENSION};
-use kestrel::pyramid::{level_size, pyramid_storage_len, Pyramid, PyramidError, MAX_LEVEL};
+use kestrel::pyramid::{level_size, pyramid_storage_len, Pyramid, MAX_LEVEL};
+use kestrel::{Bound, ConfigError};
 
 /// Larger buffers only slow the fuzzer down; the geometry still reaches 4097 px and beyond.
 const MAX_BUFFER: usize = 1 << 16;
@@ -108,9 +109,15 @@ fn check_pyramid(view: ImageView<'_>, levels: usize, delta: i8) {
     let mut storage = vec![0xA5u8; len];
     let result = Pyramid::build(view, levels, &mut storage);
     let expected = if levels > MAX_LEVEL {
-        Err(PyramidError::TooManyLevels)
+        Err(ConfigError {
+            field: "max_level",
+            bound: Bound::AtMost(7),
+        })
     } else if len < needed {
-        Err(PyramidError::StorageTooSmall)
+        Err(ConfigError {
+            field: "storage",
+            bound: Bound::MinLen(needed),
+        })
     } else {
         Ok(levels)
     };

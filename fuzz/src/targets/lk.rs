@@ -13,7 +13,7 @@ use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade, PointTrack};
 use kestrel::lk::{TrackStatus, MAX_WINDOW};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, MAX_LEVEL};
-use kestrel::{Point, Q16};
+use kestrel::{Bound, ConfigError, Point, Q16};
 
 #[derive(Arbitrary, Debug)]
 struct Input {
@@ -123,20 +123,21 @@ pub fn run(data: &[u8]) {
 }
 
 /// The documented validation, in the documented order.
-fn expected_params_error(p: &LkParams) -> Option<LkError> {
-    if p.window < 3 || p.window > MAX_WINDOW || p.window % 2 == 0 {
-        Some(LkError::BadWindow)
+fn expected_params_error(p: &LkParams) -> Option<ConfigError> {
+    let (field, bound) = if p.window < 3 || p.window > MAX_WINDOW || p.window % 2 == 0 {
+        ("window", Bound::OddRange { min: 3, max: 63 })
     } else if p.max_level > MAX_LEVEL {
-        Some(LkError::BadLevel)
+        ("max_level", Bound::AtMost(7))
     } else if p.max_iterations == 0 {
-        Some(LkError::ZeroIterations)
+        ("max_iterations", Bound::AtLeast(1))
     } else if !(p.epsilon.is_finite() && p.epsilon >= 0.0) {
-        Some(LkError::BadEpsilon)
+        ("epsilon", Bound::FiniteNonNegative)
     } else if !(p.min_eigen_threshold.is_finite() && p.min_eigen_threshold >= 0.0) {
-        Some(LkError::BadEigenThreshold)
+        ("min_eigen_threshold", Bound::FiniteNonNegative)
     } else {
-        None
-    }
+        return None;
+    };
+    Some(ConfigError { field, bound })
 }
 
 fn storage(image: &ImageView<'_>, levels: usize) -> Vec<u8> {
@@ -177,7 +178,10 @@ impl Run<'_, '_> {
         let expected = if !lengths_ok {
             Err(LkError::LengthMismatch)
         } else if scratch.len() < needed {
-            Err(LkError::ScratchTooSmall)
+            Err(LkError::Config(ConfigError {
+                field: "scratch",
+                bound: Bound::MinLen(needed),
+            }))
         } else if !same_size {
             Err(LkError::FrameSizeMismatch)
         } else {

@@ -10,27 +10,31 @@ use kestrel::dense::{
     DominantMotion, GridLayout, GridNode, MotionBox, MotionParams, MotionSummary, MovingObjects,
     MovingObjectsBuffers, MovingObjectsConfig, OutlineParams, SMOOTH_GATE, SMOOTH_PASSES,
 };
-use kestrel::frame::ImageView;
+use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::scratch_len;
-use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidError};
-use kestrel::Point;
+use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::{ConfigError, Point};
 
 use crate::Frame;
 
 /// Why the library refused to run on host frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunError {
-    /// Dense flow or motion detection refused its inputs.
+    /// Dense flow or motion detection refused its frames.
     Dense(DenseError),
-    /// A pyramid could not be built (a frame of another size than the runner's).
-    Pyramid(PyramidError),
+    /// A setting or buffer was refused (a pyramid's storage, for a frame of another size than
+    /// the runner's).
+    Config(ConfigError),
+    /// A frame could not be viewed.
+    Image(ImageError),
 }
 
 impl std::fmt::Display for RunError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             RunError::Dense(e) => e.fmt(f),
-            RunError::Pyramid(e) => e.fmt(f),
+            RunError::Config(e) => e.fmt(f),
+            RunError::Image(e) => e.fmt(f),
         }
     }
 }
@@ -43,9 +47,9 @@ impl From<DenseError> for RunError {
     }
 }
 
-impl From<PyramidError> for RunError {
-    fn from(error: PyramidError) -> Self {
-        RunError::Pyramid(error)
+impl From<ConfigError> for RunError {
+    fn from(error: ConfigError) -> Self {
+        RunError::Config(error)
     }
 }
 
@@ -136,9 +140,7 @@ impl Default for Smoothing {
 }
 
 fn view(frame: &Frame) -> Result<ImageView<'_>, RunError> {
-    frame
-        .view()
-        .map_err(|e| RunError::Pyramid(PyramidError::Image(e)))
+    frame.view().map_err(RunError::Image)
 }
 
 /// Every setting of the motion pipeline.

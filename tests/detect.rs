@@ -4,11 +4,11 @@
 use imageproc::corners::{corners_fast9, fast_corner_score, Fast as FastVariant};
 use imageproc::image::GrayImage;
 use kestrel::detect::{
-    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, DetectError,
-    ExclusionMask, Fast, Grid, Region, ShiTomasi,
+    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, ExclusionMask,
+    Fast, Grid, Region, ShiTomasi,
 };
 use kestrel::frame::ImageView;
-use kestrel::Point;
+use kestrel::{Bound, ConfigError, Point};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// A seeded xorshift64* generator: the same images on every run and machine.
@@ -528,7 +528,10 @@ fn fast_bad_input_is_harmless() {
     );
     assert_eq!(
         fast.detect(&view, huge, None, &mut scratch[..191], &mut out),
-        Err(DetectError::ScratchTooSmall)
+        Err(ConfigError {
+            field: "scratch",
+            bound: Bound::MinLen(192)
+        })
     );
     let plain = Fast {
         nonmax: false,
@@ -807,7 +810,10 @@ fn shi_tomasi_bad_input_is_harmless() {
         let bad = ShiTomasi { block, ..st };
         assert_eq!(
             bad.detect(&view, full, None, &mut scratch, &mut out),
-            Err(DetectError::BadBlockSize)
+            Err(ConfigError {
+                field: "block",
+                bound: Bound::OddRange { min: 3, max: 7 }
+            })
         );
     }
     for quality_level in [-0.01, 1.01, f32::NAN, f32::INFINITY] {
@@ -817,12 +823,18 @@ fn shi_tomasi_bad_input_is_harmless() {
         };
         assert_eq!(
             bad.detect(&view, full, None, &mut scratch, &mut out),
-            Err(DetectError::BadQualityLevel)
+            Err(ConfigError {
+                field: "quality_level",
+                bound: Bound::Range { min: 0, max: 1 }
+            })
         );
     }
     assert_eq!(
         st.detect(&view, full, None, &mut scratch[..100], &mut out),
-        Err(DetectError::ScratchTooSmall)
+        Err(ConfigError {
+            field: "scratch",
+            bound: Bound::MinLen(shi_tomasi_scratch_len(64, 16))
+        })
     );
     for region in [
         Region::new(10, 10, 0, 5),

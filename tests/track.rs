@@ -546,7 +546,6 @@ fn small_config() -> TrackerConfig {
 
 #[test]
 fn bad_settings_are_refused_when_the_tracker_is_made() {
-    use kestrel::detect::DetectError;
     use kestrel::detect::{Grid, ShiTomasi};
     use kestrel::track::Detector;
 
@@ -651,7 +650,10 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
                 },
                 ..base
             },
-            TrackerError::Detect(DetectError::BadGrid),
+            TrackerError::Config(kestrel::ConfigError {
+                field: "grid.cols",
+                bound: kestrel::Bound::Range { min: 1, max: 32 },
+            }),
         ),
         (
             TrackerConfig {
@@ -661,7 +663,10 @@ fn bad_settings_are_refused_when_the_tracker_is_made() {
                 }),
                 ..base
             },
-            TrackerError::Detect(DetectError::BadQualityLevel),
+            TrackerError::Config(kestrel::ConfigError {
+                field: "detector.quality_level",
+                bound: kestrel::Bound::Range { min: 0, max: 1 },
+            }),
         ),
     ];
     let count = cases.len();

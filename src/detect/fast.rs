@@ -25,8 +25,9 @@
 //! see [`fast_scratch_len`]. The 3-pixel frame border, where the circle does not fit, is never a
 //! corner.
 
-use super::{Corner, DetectError, ExclusionMask, Region, StrongestCorners};
+use super::{Corner, ExclusionMask, Region, StrongestCorners};
 use crate::frame::ImageView;
+use crate::ConfigError;
 
 /// Pixels at the frame edge where the circle does not fit.
 pub const FAST_BORDER: usize = 3;
@@ -97,7 +98,8 @@ impl Fast {
     ///
     /// The score of each [`Corner`] is its FAST score (see [`fast9_score`]), at least
     /// `threshold`. `scratch` must hold [`fast_scratch_len`]`(image.width())` bytes when `nonmax` is
-    /// set and may be empty otherwise. An empty region or output gives `Ok(0)`.
+    /// set and may be empty otherwise (a shorter one is refused, as `"scratch"`). An empty
+    /// region or output gives `Ok(0)`.
     ///
     /// ```
     /// use kestrel::detect::{fast_scratch_len, Fast};
@@ -118,6 +120,9 @@ impl Fast {
     /// assert_eq!(n, 2);
     /// assert_eq!((corners[0].pixel(), corners[0].score), ((6, 8), 199));
     /// assert_eq!((corners[1].pixel(), corners[1].score), ((16, 8), 69));
+    ///
+    /// let short = Fast::default().detect(&image, Region::full(&image), None, &mut [], &mut corners);
+    /// assert_eq!(short.unwrap_err().to_string(), "scratch must hold at least 96 elements");
     /// ```
     pub fn detect(
         &self,
@@ -126,9 +131,10 @@ impl Fast {
         mask: Option<&ExclusionMask>,
         scratch: &mut [u8],
         out: &mut [Corner],
-    ) -> Result<usize, DetectError> {
-        if self.nonmax && scratch.len() < fast_scratch_len(image.width()) {
-            return Err(DetectError::ScratchTooSmall);
+    ) -> Result<usize, ConfigError> {
+        let needed = fast_scratch_len(image.width());
+        if self.nonmax && scratch.len() < needed {
+            return Err(ConfigError::min_len("scratch", needed));
         }
         let area = region.clip(image.width(), image.height(), FAST_BORDER);
         let mut best = StrongestCorners::new(out);

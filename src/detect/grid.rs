@@ -6,8 +6,10 @@
 //! and keeps at most `per_cell` corners in each, counting the points already tracked in a cell
 //! against its allowance, so new corners go where tracks are missing.
 
-use super::{sort_strongest_first, Corner, DetectError};
+use super::{sort_strongest_first, Corner};
+use crate::config_error::bound_number;
 use crate::q16::Point;
+use crate::{Bound, ConfigError};
 
 /// The most columns or rows a [`Grid`] may have.
 pub const MAX_CELLS_PER_SIDE: usize = 32;
@@ -61,21 +63,29 @@ impl Grid {
         Some((cx, cy))
     }
 
-    /// Checks the number of columns and rows.
+    /// Checks the number of columns and rows; a refusal names `"cols"` or `"rows"`.
     ///
     /// ```
     /// use kestrel::detect::Grid;
-    /// use kestrel::detect::DetectError;
+    /// use kestrel::{Bound, ConfigError};
     /// assert_eq!(Grid { cols: 8, rows: 6, per_cell: 3 }.validate(), Ok(()));
-    /// assert_eq!(Grid { cols: 0, rows: 6, per_cell: 3 }.validate(), Err(DetectError::BadGrid));
+    /// let refused = Grid { cols: 0, rows: 6, per_cell: 3 }.validate().unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "cols", bound: Bound::Range { min: 1, max: 32 } });
+    /// assert_eq!(refused.to_string(), "cols must be 1 to 32");
     /// ```
-    pub fn validate(&self) -> Result<(), DetectError> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let sides = 1..=MAX_CELLS_PER_SIDE;
-        if sides.contains(&self.cols) && sides.contains(&self.rows) {
-            Ok(())
-        } else {
-            Err(DetectError::BadGrid)
+        let bound = Bound::Range {
+            min: 1,
+            max: bound_number(MAX_CELLS_PER_SIDE),
+        };
+        if !sides.contains(&self.cols) {
+            return Err(ConfigError::new("cols", bound));
         }
+        if !sides.contains(&self.rows) {
+            return Err(ConfigError::new("rows", bound));
+        }
+        Ok(())
     }
 
     /// Keeps at most `per_cell` corners per cell of a `width` x `height` frame, less one for each
@@ -107,7 +117,7 @@ impl Grid {
         height: usize,
         corners: &mut [Corner],
         tracks: &[Point],
-    ) -> Result<usize, DetectError> {
+    ) -> Result<usize, ConfigError> {
         self.validate()?;
         let mut used = [0u8; MAX_CELLS_PER_SIDE * MAX_CELLS_PER_SIDE];
         let index = |x: usize, y: usize| {
@@ -163,7 +173,13 @@ mod tests {
     #[test]
     fn bad_grids_are_refused() {
         let mut corners = [Corner::new(1, 1, 1)];
-        for (cols, rows) in [(0, 3), (3, 0), (33, 1), (1, 33)] {
+        let bound = Bound::Range { min: 1, max: 32 };
+        for (cols, rows, field) in [
+            (0, 3, "cols"),
+            (3, 0, "rows"),
+            (33, 1, "cols"),
+            (1, 33, "rows"),
+        ] {
             let grid = Grid {
                 cols,
                 rows,
@@ -171,7 +187,7 @@ mod tests {
             };
             assert_eq!(
                 grid.select(10, 10, &mut corners, &[]),
-                Err(DetectError::BadGrid)
+                Err(ConfigError::new(field, bound))
             );
         }
     }

@@ -13,6 +13,10 @@
 //! output is always sorted strongest first, so a prefix of it is the best smaller set. Detection
 //! can be restricted to a [`Region`] and kept away from existing tracks with an
 //! [`ExclusionMask`].
+//!
+//! Detection fails only on its settings and its scratch, each refusal a
+//! [`ConfigError`](crate::ConfigError) that names them: `"block"`, `"quality_level"`,
+//! `"scratch"`, a grid's `"cols"` and `"rows"`.
 
 mod fast;
 mod grid;
@@ -111,32 +115,6 @@ pub(crate) fn sort_strongest_first(corners: &mut [Corner]) {
 fn floor_pixel(v: Q16) -> usize {
     // `>> 16` floors, also for negative values; the clamp makes the cast lossless.
     (v.to_bits() >> 16).max(0) as usize
-}
-
-/// Why detection could not run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum DetectError {
-    /// The scratch buffer is shorter than the detector's `scratch_len` for this frame.
-    ScratchTooSmall,
-    /// The Shi-Tomasi block is even, smaller than 3 or larger than
-    /// [`MAX_BLOCK`].
-    BadBlockSize,
-    /// The quality level is not a number in `0.0..=1.0`.
-    BadQualityLevel,
-    /// A grid has zero columns or rows, or more than [`MAX_CELLS_PER_SIDE`].
-    BadGrid,
-}
-
-impl core::fmt::Display for DetectError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            DetectError::ScratchTooSmall => "detector scratch buffer is too small",
-            DetectError::BadBlockSize => "block size must be odd and in 3..=7",
-            DetectError::BadQualityLevel => "quality level must be in 0.0..=1.0",
-            DetectError::BadGrid => "grid needs 1..=32 columns and rows",
-        })
-    }
 }
 
 /// A rectangle of pixels: columns `x..x + width`, rows `y..y + height`.

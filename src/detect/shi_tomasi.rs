@@ -43,8 +43,10 @@
 //! textures with block 3 and 100 corners kept (counted under QEMU). At 80 x 60 (pyramid level 1)
 //! that is a quarter.
 
-use super::{Corner, DetectError, ExclusionMask, Region, StrongestCorners};
+use super::{Corner, ExclusionMask, Region, StrongestCorners};
+use crate::config_error::bound_number;
 use crate::frame::ImageView;
+use crate::{Bound, ConfigError};
 
 /// The largest block side accepted.
 pub const MAX_BLOCK: usize = 7;
@@ -164,10 +166,11 @@ impl ShiTomasi {
         mask: Option<&ExclusionMask>,
         scratch: &mut [i32],
         out: &mut [Corner],
-    ) -> Result<usize, DetectError> {
+    ) -> Result<usize, ConfigError> {
         let (reach, quality) = self.checked()?;
-        if scratch.len() < shi_tomasi_scratch_len(image.width(), out.len()) {
-            return Err(DetectError::ScratchTooSmall);
+        let needed = shi_tomasi_scratch_len(image.width(), out.len());
+        if scratch.len() < needed {
+            return Err(ConfigError::min_len("scratch", needed));
         }
         let area = region.clip(image.width(), image.height(), reach.saturating_add(1));
         if area.is_empty() || out.is_empty() {
@@ -197,23 +200,34 @@ impl ShiTomasi {
     }
 
     /// Checks the settings without detecting anything, so that a configuration can be refused
-    /// when it is made rather than on the first frame.
+    /// when it is made rather than on the first frame; a refusal names `"block"` or
+    /// `"quality_level"`.
     ///
     /// ```
     /// use kestrel::detect::ShiTomasi;
-    /// use kestrel::detect::DetectError;
+    /// use kestrel::{Bound, ConfigError};
     /// assert_eq!(ShiTomasi::default().validate(), Ok(()));
     /// let even = ShiTomasi { block: 4, ..ShiTomasi::default() };
-    /// assert_eq!(even.validate(), Err(DetectError::BadBlockSize));
+    /// let refused = even.validate().unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "block", bound: Bound::OddRange { min: 3, max: 7 } });
+    /// assert_eq!(refused.to_string(), "block must be odd, 3 to 7");
+    /// let over = ShiTomasi { quality_level: 1.5, ..ShiTomasi::default() };
+    /// assert_eq!(over.validate().unwrap_err().to_string(), "quality_level must be 0 to 1");
     /// ```
-    pub fn validate(&self) -> Result<(), DetectError> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         self.checked().map(|_| ())
     }
 
     /// `block / 2` and the quality level in Q16, or why the settings are refused.
-    fn checked(&self) -> Result<(usize, u64), DetectError> {
-        let reach = block_reach(self.block).ok_or(DetectError::BadBlockSize)?;
-        let quality = quality_q16(self.quality_level).ok_or(DetectError::BadQualityLevel)?;
+    fn checked(&self) -> Result<(usize, u64), ConfigError> {
+        let block = Bound::OddRange {
+            min: 3,
+            max: bound_number(MAX_BLOCK),
+        };
+        let reach = block_reach(self.block).ok_or(ConfigError::new("block", block))?;
+        let quality = Bound::Range { min: 0, max: 1 };
+        let quality =
+            quality_q16(self.quality_level).ok_or(ConfigError::new("quality_level", quality))?;
         Ok((reach, quality))
     }
 }

@@ -322,9 +322,14 @@ impl TrackerConfig {
         if self.detect_level > MAX_LEVEL {
             return Err(TrackerError::BadDetectLevel);
         }
-        self.grid.validate().map_err(TrackerError::Detect)?;
+        let nested = |paths| move |e: ConfigError| TrackerError::Config(e.nested(paths));
+        self.grid
+            .validate()
+            .map_err(nested(&["grid.cols", "grid.rows"]))?;
         if let Detector::ShiTomasi(shi_tomasi) = &self.detector {
-            shi_tomasi.validate().map_err(TrackerError::Detect)?;
+            shi_tomasi
+                .validate()
+                .map_err(nested(&["detector.block", "detector.quality_level"]))?;
         }
         let fb_limit_sq = gate(self.fb_threshold)
             .ok_or(TrackerError::BadFbThreshold)?

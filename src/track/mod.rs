@@ -84,7 +84,6 @@ mod turn;
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
 pub use config::{Detector, TrackerConfig, BIRTH_MIN_EIGEN};
 
-use crate::detect::DetectError;
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::lk::{scratch_len, LkError};
 use crate::pyramid::{pyramid_storage_len, Pyramid};
@@ -222,8 +221,6 @@ impl FrameReport {
 pub enum TrackerError {
     /// A setting or buffer was refused.
     Config(ConfigError),
-    /// The detector or grid settings are invalid.
-    Detect(DetectError),
     /// `max_tracks` is 0 or larger than the tracker's capacity `N`.
     BadMaxTracks,
     /// `refill_below` is larger than `max_tracks`.
@@ -264,7 +261,6 @@ impl core::fmt::Display for TrackerError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             TrackerError::Config(e) => e.fmt(f),
-            TrackerError::Detect(e) => write!(f, "tracker detector settings: {e}"),
             TrackerError::BadMaxTracks => f.write_str("max tracks must be 1 to the capacity"),
             TrackerError::BadRefillThreshold => {
                 f.write_str("refill threshold must be at most max tracks")
@@ -836,7 +832,7 @@ fn start_tracks(
         candidates: buffers.candidates,
     };
     let corners = refill::new_corners(config, &level_image, size, live, detect)
-        .map_err(TrackerError::Detect)?;
+        .map_err(TrackerError::Config)?;
     report.detected = true;
     let mut started = 0;
     for corner in corners {

@@ -2,9 +2,10 @@
 //! space the new corners out, and bucket them over the frame.
 
 use super::config::{Detector, TrackerConfig};
-use crate::detect::{Corner, DetectError, ExclusionMask, Region};
+use crate::detect::{Corner, ExclusionMask, Region};
 use crate::frame::ImageView;
 use crate::q16::Point;
+use crate::ConfigError;
 
 /// The memory one detection works in.
 pub(super) struct DetectBuffers<'b> {
@@ -28,7 +29,7 @@ pub(super) fn new_corners<'b>(
     (width, height): (usize, usize),
     live: &[Point],
     buffers: DetectBuffers<'b>,
-) -> Result<&'b [Corner], DetectError> {
+) -> Result<&'b [Corner], ConfigError> {
     let level = config.detect_level;
     // Round the radius up so that the spacing is at least min_distance at full resolution.
     let radius = config.min_distance.div_ceil(1 << level);

@@ -11,11 +11,11 @@
 use super::picture::{Frame, Picture};
 use arbitrary::Arbitrary;
 use kestrel::detect::{
-    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, DetectError,
-    ExclusionMask, Fast, Grid, Region, ShiTomasi, FAST_BORDER, MAX_BLOCK, MAX_CELLS_PER_SIDE,
+    fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, ExclusionMask,
+    Fast, Grid, Region, ShiTomasi, FAST_BORDER, MAX_BLOCK, MAX_CELLS_PER_SIDE,
 };
 use kestrel::frame::ImageView;
-use kestrel::Point;
+use kestrel::{Bound, ConfigError, Point};
 
 #[derive(Arbitrary, Debug)]
 struct Input {
@@ -96,7 +96,11 @@ fn check_fast(
     let mut out = vec![Corner::default(); capacity];
     let result = detector.detect(image, region, mask, &mut scratch, &mut out);
     if scratch.len() < needed {
-        assert_eq!(result, Err(DetectError::ScratchTooSmall));
+        let needed = ConfigError {
+            field: "scratch",
+            bound: Bound::MinLen(needed),
+        };
+        assert_eq!(result, Err(needed));
         return;
     }
     let n = result.expect("FAST refused valid buffers");
@@ -168,14 +172,15 @@ fn check_shi_tomasi(
     let block_ok = detector.block % 2 == 1 && (3..=MAX_BLOCK).contains(&detector.block);
     let quality_ok = (0.0..=1.0).contains(&detector.quality_level);
     let expected_error = if !block_ok {
-        Some(DetectError::BadBlockSize)
+        Some(("block", Bound::OddRange { min: 3, max: 7 }))
     } else if !quality_ok {
-        Some(DetectError::BadQualityLevel)
+        Some(("quality_level", Bound::Range { min: 0, max: 1 }))
     } else if scratch.len() < needed {
-        Some(DetectError::ScratchTooSmall)
+        Some(("scratch", Bound::MinLen(needed)))
     } else {
         None
     };
+    let expected_error = expected_error.map(|(field, bound)| ConfigError { field, bound });
     assert_eq!(detector.validate().is_ok(), block_ok && quality_ok);
     if let Some(error) = expected_error {
         assert_eq!(result, Err(error));
@@ -242,7 +247,13 @@ fn check_grid(input: &Input, frame: &Frame, mut corners: Vec<Corner>) {
     let (w, h) = (frame.width, frame.height);
     let result = grid.select(w, h, &mut corners, &tracks);
     if !valid {
-        assert_eq!(result, Err(DetectError::BadGrid));
+        let field = if sides.contains(&grid.cols) {
+            "rows"
+        } else {
+            "cols"
+        };
+        let bound = Bound::Range { min: 1, max: 32 };
+        assert_eq!(result, Err(ConfigError { field, bound }));
         return;
     }
     let n = result.expect("a valid grid");

@@ -90,6 +90,8 @@ pub enum Bound {
     Fraction,
     /// A buffer of at least this many elements.
     MinLen(usize),
+    /// `None`: the type was built without the feature this setting asks for.
+    Absent,
 }
 
 impl core::fmt::Display for Bound {
@@ -114,6 +116,7 @@ impl core::fmt::Display for Bound {
             Bound::Within(n) => write!(f, "must be a number from -{n} to {n}"),
             Bound::Fraction => f.write_str("must be a number above 0 and below 1"),
             Bound::MinLen(n) => write!(f, "must hold at least {n} elements"),
+            Bound::Absent => f.write_str("must be None"),
         }
     }
 }
@@ -156,6 +159,16 @@ impl ConfigError {
             None => self,
         }
     }
+
+    /// The same refusal with its field renamed by the first of `names`, `(from, to)` pairs,
+    /// whose `from` it is: a buffer a function calls `"scratch"` is its caller's
+    /// `"buffers.lk_scratch"`. Other fields are left as they are.
+    pub(crate) fn renamed(self, names: &[(&str, &'static str)]) -> Self {
+        match names.iter().find(|(from, _)| *from == self.field) {
+            Some(&(_, to)) => Self::new(to, self.bound),
+            None => self,
+        }
+    }
 }
 
 /// `n` as a bound's number, saturating at `u32::MAX` (no setting comes near it).
@@ -190,6 +203,17 @@ mod tests {
         assert_eq!(short.nested(&["buffers.lk_storage"]).field, "storage");
         assert_eq!(short.nested(&["storage"]).field, "storage");
         assert_eq!(short.nested(&[]), short);
+    }
+
+    #[test]
+    fn renamed_fields_take_the_first_match() {
+        let short = ConfigError::min_len("scratch", 9);
+        let names = [
+            ("nodes", "buffers.nodes"),
+            ("scratch", "buffers.lk_scratch"),
+        ];
+        assert_eq!(short.renamed(&names).field, "buffers.lk_scratch");
+        assert_eq!(short.renamed(&names[..1]), short);
     }
 
     #[test]

@@ -18,6 +18,7 @@ use kestrel::dense::{
 use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::{Bound, ConfigError};
 
 const NOISE: f64 = 1.5;
 const SEEDS: [u64; 4] = [1, 2, 3, 4];
@@ -183,17 +184,23 @@ fn bad_cells_and_small_frames_are_errors_not_panics() {
         },
         ..DenseParams::default()
     };
+    let cell = |bound| {
+        DenseError::Config(ConfigError {
+            field: "cell",
+            bound,
+        })
+    };
     let cases = [
-        ("cell 0", with(0, 9, 3), DenseError::ZeroCell),
+        ("cell 0", with(0, 9, 3), cell(Bound::AtLeast(1))),
         (
             "cell 49 > height 48",
             with(49, 9, 3),
-            DenseError::CellTooLarge,
+            cell(Bound::Range { min: 1, max: 48 }),
         ),
         (
             "cell 65 > width 64",
             with(65, 9, 0),
-            DenseError::CellTooLarge,
+            cell(Bound::Range { min: 1, max: 48 }),
         ),
         // Level 3 of 64 x 48 is 8 x 6 px: narrower than half a 21 px window.
         (
@@ -210,9 +217,15 @@ fn bad_cells_and_small_frames_are_errors_not_panics() {
     // Level 2 is 16 x 12: enough for the same window.
     assert!(run(with(8, 21, 2), &mut nodes, &mut scratch).is_ok());
     let short = run(with(8, 9, 3), &mut nodes[..47], &mut scratch);
-    assert_eq!(short, Err(DenseError::NodesTooShort));
+    let needed = |field, len| {
+        Err(DenseError::Config(ConfigError {
+            field,
+            bound: Bound::MinLen(len),
+        }))
+    };
+    assert_eq!(short, needed("nodes", 48));
     let no_scratch = run(with(8, 9, 3), &mut nodes, &mut scratch[..100]);
-    assert_eq!(no_scratch, Err(DenseError::ScratchTooSmall));
+    assert_eq!(no_scratch, needed("scratch", scratch_len(9)));
     // A 1 x 1 frame is smaller than half of even the smallest window; 2 x 2 is enough for it
     // and gives four nodes of 1 px cells, without texture.
     let params = DenseParams {

@@ -90,7 +90,7 @@ impl Dense {
             ..defaults
         };
         Ok(Self {
-            objects: MovingObjects::new(config, WIDTH, HEIGHT).map_err(FrameError::Dense)?,
+            objects: MovingObjects::new(config, WIDTH, HEIGHT).map_err(FrameError::Config)?,
             buffers: memory.buffers(),
         })
     }

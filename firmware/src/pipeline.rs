@@ -16,7 +16,7 @@ use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers, TrackerConfig,
     TrackerError, TrackerStage,
 };
-use kestrel::Point;
+use kestrel::{ConfigError, Point};
 
 use crate::dense::{Dense, DenseMemory};
 use crate::ego::Ego;
@@ -111,6 +111,8 @@ pub type BudgetMemory = TrackerMemory<STORAGE_LEN, LK_SCRATCH_LEN, DETECT_SCRATC
 /// Why a frame produced no flow, or the pipeline could not be made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrameError {
+    /// A setting or buffer refused when the pipeline is made.
+    Config(ConfigError),
     Image(ImageError),
     Track(TrackerError),
     Camera(CameraError),

@@ -7,7 +7,7 @@
 
 use super::grid::{GridLayout, GridNode};
 use super::motion::CameraMotion;
-use super::DenseError;
+use crate::{Bound, ConfigError};
 
 /// An affine flow field: the motion the camera gives every pixel.
 ///
@@ -74,8 +74,9 @@ impl DominantMotion {
 
     /// Fits the dominant motion to the measured nodes of `nodes`. Filled and invalid nodes
     /// are ignored; without any measured node the result is [`DominantMotion::ZERO`]. A node
-    /// slice shorter than the layout is refused ([`DenseError::NodesTooShort`]): its missing
-    /// rows would read as unmeasured.
+    /// slice shorter than the layout is refused (as `"nodes"`): its missing rows would read as
+    /// unmeasured; so are radii that are not finite numbers above 0 (`"start_radius"`,
+    /// `"inlier_radius"`).
     ///
     /// Moving objects are outliers to the camera's motion, so it is fitted robustly, by
     /// iteratively reweighted least squares with Tukey's biweight ([`DominantFitParams`]):
@@ -105,16 +106,16 @@ impl DominantMotion {
     /// let (dx, dy) = fit.motion.flow_at(20.0, 12.0);
     /// assert!((dx - 1.5).abs() < 1e-3 && dy.abs() < 1e-3);
     /// let short = DominantMotion::fit(&layout, &nodes[..63], &DominantFitParams::default());
-    /// assert_eq!(short.unwrap_err(), kestrel::dense::DenseError::NodesTooShort);
+    /// assert_eq!(short.unwrap_err().to_string(), "nodes must hold at least 64 elements");
     /// ```
     pub fn fit(
         layout: &GridLayout,
         nodes: &[GridNode],
         params: &DominantFitParams,
-    ) -> Result<DominantFit, DenseError> {
+    ) -> Result<DominantFit, ConfigError> {
         params.check()?;
         if nodes.len() < layout.len() {
-            return Err(DenseError::NodesTooShort);
+            return Err(ConfigError::min_len("nodes", layout.len()));
         }
         let nodes = Measured::new(layout, nodes);
         let measured = nodes.iter().count();
@@ -169,8 +170,8 @@ impl CameraMotion for DominantMotion {
 /// How the dominant motion is fitted.
 ///
 /// ```
-/// use kestrel::dense::{DenseError, DominantFitParams, DominantMotion, GridLayout, GridNode};
-/// use kestrel::Point;
+/// use kestrel::dense::{DominantFitParams, DominantMotion, GridLayout, GridNode};
+/// use kestrel::{Bound, ConfigError, Point};
 ///
 /// // The camera pans 1 px right; four nodes measured 1.5 px more.
 /// let layout = GridLayout::new(64, 64, 8).unwrap();
@@ -185,7 +186,9 @@ impl CameraMotion for DominantMotion {
 /// // Within the default radius of 1 px, only the pan's nodes are inliers; 2 px takes all.
 /// assert_eq!(fit(1.0).unwrap().inliers, 60);
 /// assert_eq!(fit(2.0).unwrap().inliers, 64);
-/// assert_eq!(fit(0.0).unwrap_err(), DenseError::BadThreshold);
+/// let refused = fit(0.0).unwrap_err();
+/// assert_eq!(refused, ConfigError { field: "inlier_radius", bound: Bound::Positive });
+/// assert_eq!(refused.to_string(), "inlier_radius must be a finite number above 0");
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -210,13 +213,16 @@ impl Default for DominantFitParams {
 }
 
 impl DominantFitParams {
-    pub(crate) fn check(&self) -> Result<(), DenseError> {
+    /// Refuses a radius that is not a finite number above 0, by name.
+    pub(crate) fn check(&self) -> Result<(), ConfigError> {
         let positive = |r: f32| r.is_finite() && r > 0.0;
-        if positive(self.start_radius) && positive(self.inlier_radius) {
-            Ok(())
-        } else {
-            Err(DenseError::BadThreshold)
+        if !positive(self.start_radius) {
+            return Err(ConfigError::new("start_radius", Bound::Positive));
         }
+        if !positive(self.inlier_radius) {
+            return Err(ConfigError::new("inlier_radius", Bound::Positive));
+        }
+        Ok(())
     }
 
     fn inlier_radius_sq(&self) -> f32 {
@@ -547,7 +553,7 @@ mod tests {
         };
         assert_eq!(
             DominantMotion::fit(&layout, &row, &bad),
-            Err(DenseError::BadThreshold)
+            Err(ConfigError::new("inlier_radius", Bound::Positive))
         );
     }
 

@@ -1,8 +1,8 @@
 //! Filling invalid nodes from their valid neighbours: [`fill_invalid`].
 
 use super::grid::{GridLayout, GridNode, NodeStatus, NEIGHBOURS};
-use super::DenseError;
 use crate::q16::{Point, Q16};
+use crate::ConfigError;
 
 /// Known neighbours a node needs to be filled: one alone would copy a possibly wrong value.
 pub const FILL_MIN_SOURCES: usize = 2;
@@ -22,11 +22,13 @@ pub const FILL_MIN_SOURCES: usize = 2;
 ///
 /// # Errors
 ///
-/// [`DenseError::NodesTooShort`] when `nodes` is shorter than the layout; no node is changed.
+/// A [`ConfigError`] naming `"nodes"` when `nodes` is shorter than the layout; no node is
+/// changed.
 /// A shorter slice would lose the neighbours of its last row and fill it differently.
 ///
 /// ```
-/// use kestrel::dense::{fill_invalid, DenseError, GridLayout, GridNode, NodeStatus};
+/// use kestrel::dense::{fill_invalid, GridLayout, GridNode, NodeStatus};
+/// use kestrel::{Bound, ConfigError};
 /// use kestrel::Point;
 ///
 /// // A 3 x 3 grid: the centre is unknown, its neighbours moved 2 px right.
@@ -38,17 +40,19 @@ pub const FILL_MIN_SOURCES: usize = 2;
 /// assert_eq!(nodes[4].flow.to_f32(), (2.0, 0.0));
 /// // A slice shorter than the layout is refused, untouched.
 /// let mut short = [GridNode::invalid(NodeStatus::LowTexture); 8];
-/// assert_eq!(fill_invalid(&layout, &mut short, 2), Err(DenseError::NodesTooShort));
+/// let refused = fill_invalid(&layout, &mut short, 2).unwrap_err();
+/// assert_eq!(refused, ConfigError { field: "nodes", bound: Bound::MinLen(9) });
+/// assert_eq!(refused.to_string(), "nodes must hold at least 9 elements");
 /// assert!(short.iter().all(|n| n.status == NodeStatus::LowTexture));
 /// ```
 pub fn fill_invalid(
     layout: &GridLayout,
     nodes: &mut [GridNode],
     passes: u8,
-) -> Result<usize, DenseError> {
+) -> Result<usize, ConfigError> {
     let nodes = nodes
         .get_mut(..layout.len())
-        .ok_or(DenseError::NodesTooShort)?;
+        .ok_or(ConfigError::min_len("nodes", layout.len()))?;
     // Nodes filled by an earlier call count as earlier passes.
     let done = nodes.iter().map(|n| n.fill_pass).max().unwrap_or(0);
     let mut filled = 0usize;

@@ -3,9 +3,11 @@
 use super::agreement::agreement;
 use super::fill::fill_invalid;
 use super::{lk_refusal, DenseError};
+use crate::config_error::bound_number;
 use crate::lk::{scratch_len, LkParams, LucasKanade, TrackStatus, LK_PATHS};
 use crate::pyramid::{level_size, Pyramid};
 use crate::q16::Point;
+use crate::{Bound, ConfigError};
 
 /// Nodes along one side of `size` px with `cell` px cells: the centres `cell/2 + k·cell` that lie
 /// inside `0..size`. Zero when `cell` is zero.
@@ -66,20 +68,26 @@ pub struct GridLayout {
 }
 
 impl GridLayout {
-    /// The grid of `cell` px cells over a `width` x `height` frame.
+    /// The grid of `cell` px cells over a `width` x `height` frame: `cell` is at least 1 and
+    /// at most the frame's smaller side.
     ///
     /// ```
-    /// use kestrel::dense::{DenseError, GridLayout};
-    /// assert_eq!(GridLayout::new(160, 120, 0), Err(DenseError::ZeroCell));
-    /// assert_eq!(GridLayout::new(160, 120, 121), Err(DenseError::CellTooLarge));
+    /// use kestrel::dense::GridLayout;
+    /// use kestrel::{Bound, ConfigError};
+    /// let cells = Bound::Range { min: 1, max: 120 };
+    /// assert_eq!(GridLayout::new(160, 120, 0), Err(ConfigError { field: "cell", bound: cells }));
+    /// let refused = GridLayout::new(160, 120, 121).unwrap_err();
+    /// assert_eq!(refused.to_string(), "cell must be 1 to 120");
     /// assert!(GridLayout::new(160, 120, 120).is_ok());
     /// ```
-    pub const fn new(width: usize, height: usize, cell: usize) -> Result<Self, DenseError> {
-        if cell == 0 {
-            return Err(DenseError::ZeroCell);
-        }
-        if cell > width || cell > height {
-            return Err(DenseError::CellTooLarge);
+    pub const fn new(width: usize, height: usize, cell: usize) -> Result<Self, ConfigError> {
+        if cell == 0 || cell > width || cell > height {
+            let side = if width < height { width } else { height };
+            let bound = Bound::Range {
+                min: 1,
+                max: bound_number(side),
+            };
+            return Err(ConfigError::new("cell", bound));
         }
         Ok(Self {
             width,
@@ -369,7 +377,8 @@ impl GridNode {
 /// Dense-mode parameters.
 ///
 /// ```
-/// use kestrel::dense::{DenseError, DenseFlow, DenseParams};
+/// use kestrel::dense::{DenseFlow, DenseParams};
+/// use kestrel::{Bound, ConfigError};
 /// // A node every `cell` px: over a 64 x 48 frame, 8 x 6 nodes for 8 px, 4 x 3 for 16 px.
 /// let nodes = |cell| {
 ///     let dense = DenseFlow::new(DenseParams { cell, ..DenseParams::default() }).unwrap();
@@ -380,7 +389,9 @@ impl GridNode {
 /// assert_eq!(nodes(16), (4, 3));
 /// // The camera check's tolerance is at most a pixel.
 /// let loose = DenseParams { camera_tolerance: 1.5, ..DenseParams::default() };
-/// assert_eq!(DenseFlow::new(loose).unwrap_err(), DenseError::BadThreshold);
+/// let refused = DenseFlow::new(loose).unwrap_err();
+/// assert_eq!(refused, ConfigError { field: "camera_tolerance", bound: Bound::Range { min: 0, max: 1 } });
+/// assert_eq!(refused.to_string(), "camera_tolerance must be 0 to 1");
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -527,29 +538,34 @@ pub struct DenseFlow {
 }
 
 impl DenseFlow {
-    /// Validates `params`.
+    /// Validates `params`; a refusal names `"cell"`, `"max_residual"`, `"camera_tolerance"` or
+    /// the LK setting (`"lk.window"`, ...).
     ///
     /// ```
-    /// use kestrel::dense::{DenseError, DenseFlow, DenseParams};
+    /// use kestrel::dense::{DenseFlow, DenseParams};
+    /// use kestrel::{Bound, ConfigError};
     /// assert!(DenseFlow::new(DenseParams::default()).is_ok());
     /// let zero = DenseParams { cell: 0, ..DenseParams::default() };
-    /// assert_eq!(DenseFlow::new(zero).unwrap_err(), DenseError::ZeroCell);
+    /// assert_eq!(DenseFlow::new(zero).unwrap_err(), ConfigError { field: "cell", bound: Bound::AtLeast(1) });
     /// let gate = DenseParams { max_residual: f32::NAN, ..DenseParams::default() };
-    /// assert_eq!(DenseFlow::new(gate).unwrap_err(), DenseError::BadThreshold);
+    /// assert_eq!(DenseFlow::new(gate).unwrap_err().to_string(), "max_residual must be a finite number >= 0");
+    /// let mut even = DenseParams::default();
+    /// even.lk.window = 8;
+    /// assert_eq!(DenseFlow::new(even).unwrap_err().to_string(), "lk.window must be odd, 3 to 63");
     /// ```
-    pub fn new(params: DenseParams) -> Result<Self, DenseError> {
+    pub fn new(params: DenseParams) -> Result<Self, ConfigError> {
         if params.cell == 0 {
-            return Err(DenseError::ZeroCell);
+            return Err(ConfigError::new("cell", Bound::AtLeast(1)));
         }
         if !params.max_residual.is_finite() || params.max_residual < 0.0 {
-            return Err(DenseError::BadThreshold);
+            return Err(ConfigError::new("max_residual", Bound::FiniteNonNegative));
         }
         // Above one pixel the check would confirm nodes that move on their own.
         if !(0.0..=1.0).contains(&params.camera_tolerance) {
-            return Err(DenseError::BadThreshold);
+            let bound = Bound::Range { min: 0, max: 1 };
+            return Err(ConfigError::new("camera_tolerance", bound));
         }
-        let lk =
-            LucasKanade::new(params.lk).map_err(|e| DenseError::Config(e.nested(&LK_PATHS)))?;
+        let lk = LucasKanade::new(params.lk).map_err(|e| e.nested(&LK_PATHS))?;
         let fine = lk.with_max_level(0);
         // In 0..=256 after the check above: the cast neither truncates nor saturates.
         #[allow(clippy::cast_possible_truncation)]
@@ -580,7 +596,9 @@ impl DenseFlow {
     /// let dense = DenseFlow::new(DenseParams::default()).unwrap();
     /// assert_eq!(dense.layout(320, 240).unwrap().len(), 1200);
     /// ```
-    pub fn layout(&self, width: usize, height: usize) -> Result<GridLayout, DenseError> {
+    ///
+    /// A cell larger than the frame's smaller side is refused as `"cell"`.
+    pub fn layout(&self, width: usize, height: usize) -> Result<GridLayout, ConfigError> {
         GridLayout::new(width, height, self.params.cell)
     }
 
@@ -700,7 +718,8 @@ impl DenseFlow {
             tracked = tracked.saturating_add(usize::from(node.is_valid()));
         }
         // `check` refused a node slice shorter than the layout.
-        let filled = fill_invalid(&layout, nodes, self.params.fill_passes)?;
+        let filled =
+            fill_invalid(&layout, nodes, self.params.fill_passes).map_err(DenseError::Config)?;
         Ok(DenseSummary {
             layout,
             tracked,
@@ -720,7 +739,9 @@ impl DenseFlow {
         if !base.same_size(&next.base()) {
             return Err(DenseError::FrameSizeMismatch);
         }
-        let layout = self.layout(base.width(), base.height())?;
+        let layout = self
+            .layout(base.width(), base.height())
+            .map_err(DenseError::Config)?;
         let top = self
             .params
             .lk
@@ -732,10 +753,14 @@ impl DenseFlow {
             return Err(DenseError::FrameTooSmall);
         }
         if nodes < layout.len() {
-            return Err(DenseError::NodesTooShort);
+            return Err(DenseError::Config(ConfigError::min_len(
+                "nodes",
+                layout.len(),
+            )));
         }
-        if scratch < scratch_len(self.params.lk.window) {
-            return Err(DenseError::ScratchTooSmall);
+        let needed = scratch_len(self.params.lk.window);
+        if scratch < needed {
+            return Err(DenseError::Config(ConfigError::min_len("scratch", needed)));
         }
         Ok(layout)
     }
@@ -895,23 +920,29 @@ mod tests {
             dense(49, 9, 0)
                 .unwrap()
                 .compute(&p, &p, &mut nodes, &mut scratch),
-            Err(DenseError::CellTooLarge)
+            Err(DenseError::Config(ConfigError::new(
+                "cell",
+                Bound::Range { min: 1, max: 48 }
+            )))
         );
-        assert_eq!(dense(0, 9, 0).unwrap_err(), DenseError::ZeroCell);
+        assert_eq!(
+            dense(0, 9, 0).unwrap_err(),
+            ConfigError::new("cell", Bound::AtLeast(1))
+        );
         assert_eq!(
             dense(8, 10, 0).unwrap_err(),
-            DenseError::Config(crate::ConfigError::new(
-                "lk.window",
-                crate::Bound::OddRange { min: 3, max: 63 }
-            ))
+            ConfigError::new("lk.window", Bound::OddRange { min: 3, max: 63 })
         );
         assert_eq!(
             ok.compute(&p, &p, &mut nodes[..10], &mut scratch),
-            Err(DenseError::NodesTooShort)
+            Err(DenseError::Config(ConfigError::min_len("nodes", 48)))
         );
         assert_eq!(
             ok.compute(&p, &p, &mut nodes, &mut scratch[..10]),
-            Err(DenseError::ScratchTooSmall)
+            Err(DenseError::Config(ConfigError::min_len(
+                "scratch",
+                scratch_len(9)
+            )))
         );
         let other = [100u8; 48 * 48];
         let mut other_storage = [0u8; pyramid_storage_len(48, 48, 3)];

@@ -2,7 +2,7 @@
 //! ([`mask_close`], [`mask_open`] with a [`MaskStructure`]).
 
 use super::grid::{grid_len, GridLayout};
-use super::DenseError;
+use crate::ConfigError;
 
 /// `u32` words of a mask over the grid of `cell` px cells on a `width` x `height` frame.
 ///
@@ -148,7 +148,7 @@ pub fn mask_close(
     mask: &mut [u32],
     temp: &mut [u32],
     structure: MaskStructure,
-) -> Result<(), DenseError> {
+) -> Result<(), ConfigError> {
     check(layout, mask, temp)?;
     dilate(layout, mask, temp, structure);
     for index in 0..layout.len() {
@@ -175,7 +175,7 @@ pub fn mask_open(
     mask: &mut [u32],
     temp: &mut [u32],
     structure: MaskStructure,
-) -> Result<(), DenseError> {
+) -> Result<(), ConfigError> {
     check(layout, mask, temp)?;
     for index in 0..layout.len() {
         mask_set(temp, index, eroded(layout, mask, index, structure, true));
@@ -184,10 +184,14 @@ pub fn mask_open(
     Ok(())
 }
 
-fn check(layout: &GridLayout, mask: &[u32], temp: &[u32]) -> Result<(), DenseError> {
+/// Refuses a `mask` or `temp` shorter than the layout's [`mask_words`], by name.
+fn check(layout: &GridLayout, mask: &[u32], temp: &[u32]) -> Result<(), ConfigError> {
     let words = words_for(layout.len());
-    if mask.len() < words || temp.len() < words {
-        return Err(DenseError::MaskTooShort);
+    if mask.len() < words {
+        return Err(ConfigError::min_len("mask", words));
+    }
+    if temp.len() < words {
+        return Err(ConfigError::min_len("temp", words));
     }
     Ok(())
 }
@@ -269,11 +273,11 @@ mod tests {
         let mut mask = [0u32; 8];
         assert_eq!(
             mask_close(&layout, &mut mask, &mut [0; 7], MaskStructure::Square2),
-            Err(DenseError::MaskTooShort)
+            Err(ConfigError::min_len("temp", 8))
         );
         assert_eq!(
             mask_open(&layout, &mut mask[..7], &mut [0; 8], MaskStructure::Square2),
-            Err(DenseError::MaskTooShort)
+            Err(ConfigError::min_len("mask", 8))
         );
     }
 }

@@ -29,6 +29,8 @@
 //! (a displacement, not a position).
 //!
 //! Nothing allocates: nodes, masks and boxes live in caller-owned slices sized by `const fn`s.
+//! A refused setting or slice is a [`ConfigError`] naming it (`"cell"`, `"lk.window"`,
+//! `"nodes"`, `"mask"`, ...); what a frame pair can meet is a [`DenseError`].
 //!
 //! # Memory
 //!
@@ -127,36 +129,52 @@ pub use smooth::{
 use crate::lk::LkError;
 use crate::ConfigError;
 
-/// Why dense flow or motion detection could not run.
+/// Why a frame pair could not be taken: by [`DenseFlow::compute`], [`Outliner::outline`] or
+/// [`MovingObjects::process`].
+///
+/// Refused settings and buffers are [`ConfigError`]s: the constructors and the functions
+/// that take only buffers return one, and a frame pair's functions, which also take buffers,
+/// wrap it as [`DenseError::Config`].
+///
+/// ```
+/// use kestrel::dense::{grid_len, DenseError, DenseFlow, DenseParams, GridNode};
+/// use kestrel::frame::ImageView;
+/// use kestrel::lk::scratch_len;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::{Bound, ConfigError};
+/// let pixels = [100u8; 64 * 48];
+/// let mut storage = [0u8; pyramid_storage_len(64, 48, 3)];
+/// let frame = Pyramid::build(ImageView::packed(&pixels, 64, 48).unwrap(), 3, &mut storage).unwrap();
+/// let dense = DenseFlow::new(DenseParams::default()).unwrap();
+/// let mut scratch = [0i16; scratch_len(9)];
+/// let mut nodes = [GridNode::EMPTY; 10];
+/// let short = dense.compute(&frame, &frame, &mut nodes, &mut scratch).unwrap_err();
+/// let needed = ConfigError { field: "nodes", bound: Bound::MinLen(grid_len(64, 48, 8)) };
+/// assert_eq!(short, DenseError::Config(needed));
+/// assert_eq!(short.to_string(), "nodes must hold at least 48 elements");
+/// // Level 3 of 64 x 48 is 8 x 6: narrower than half a 21 px window.
+/// let wide = DenseParams { lk: kestrel::lk::LkParams { window: 21, ..DenseParams::default().lk }, ..DenseParams::default() };
+/// let mut nodes = [GridNode::EMPTY; grid_len(64, 48, 8)];
+/// let mut scratch = [0i16; scratch_len(21)];
+/// let small = DenseFlow::new(wide).unwrap().compute(&frame, &frame, &mut nodes, &mut scratch);
+/// assert_eq!(small, Err(DenseError::FrameTooSmall));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DenseError {
-    /// The cell size is zero.
-    ZeroCell,
-    /// The cell is wider or higher than the frame.
-    CellTooLarge,
+    /// The two pyramids were built from frames of different sizes, or not of the size the
+    /// grid or pipeline was made for.
+    FrameSizeMismatch,
     /// The coarsest pyramid level used is smaller than half an LK window per side.
     FrameTooSmall,
-    /// The two pyramids were built from frames of different sizes.
-    FrameSizeMismatch,
-    /// The node slice is shorter than [`grid_len`].
-    NodesTooShort,
-    /// The LK scratch is shorter than [`crate::lk::scratch_len`] for the window.
-    ScratchTooSmall,
-    /// The mask is shorter than [`mask_words`].
-    MaskTooShort,
-    /// The motion scratch is shorter than [`motion_scratch_len`].
-    MotionScratchTooShort,
-    /// The smoothing's rows are shorter than [`smooth_scratch_len`].
-    SmoothScratchTooShort,
-    /// A threshold is negative, NaN or infinite, or a smoothing gate is beyond a Q16 flow
-    /// (32,768 px).
-    BadThreshold,
-    /// The outline's side is outside [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`], or its reach
-    /// above [`OUTLINE_MAX_REACH`].
-    BadOutline,
-    /// A setting or buffer was refused.
+    /// A buffer was refused, or the grid's cell for these frames.
     Config(ConfigError),
+}
+
+impl From<ConfigError> for DenseError {
+    fn from(e: ConfigError) -> Self {
+        DenseError::Config(e)
+    }
 }
 
 /// A per-node LK refusal: never expected, since [`DenseFlow::compute`] checks the frames and
@@ -171,25 +189,10 @@ pub(crate) fn lk_refusal(e: LkError) -> DenseError {
 impl core::fmt::Display for DenseError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            DenseError::ZeroCell => f.write_str("cell size must be at least 1 px"),
-            DenseError::CellTooLarge => f.write_str("cell is larger than the frame"),
+            DenseError::FrameSizeMismatch => f.write_str("previous and next frames differ in size"),
             DenseError::FrameTooSmall => {
                 f.write_str("frame is too small for the pyramid: the coarsest level is narrower than half a window")
             }
-            DenseError::FrameSizeMismatch => f.write_str("previous and next frames differ in size"),
-            DenseError::NodesTooShort => f.write_str("node buffer is shorter than grid_len"),
-            DenseError::ScratchTooSmall => f.write_str("scratch is smaller than scratch_len(window)"),
-            DenseError::MaskTooShort => f.write_str("mask buffer is shorter than mask_words"),
-            DenseError::MotionScratchTooShort => {
-                f.write_str("motion scratch is shorter than motion_scratch_len")
-            }
-            DenseError::SmoothScratchTooShort => {
-                f.write_str("smoothing rows are shorter than smooth_scratch_len")
-            }
-            DenseError::BadThreshold => {
-                f.write_str("thresholds must be finite numbers >= 0 (smoothing gates below 32768 px)")
-            }
-            DenseError::BadOutline => f.write_str("outline side must be 8 to 255 px and reach at most 128 px"),
             DenseError::Config(e) => e.fmt(f),
         }
     }

@@ -5,8 +5,8 @@ use super::mask::{
     mask_close, mask_count, mask_open, mask_set, mask_words, words_for, MaskStructure,
 };
 use super::regions::{find_boxes, BoxRules, MotionBox};
-use super::DenseError;
 use crate::ego::Homography;
+use crate::{Bound, ConfigError};
 
 /// The flow the camera's own motion gives each pixel.
 ///
@@ -183,16 +183,19 @@ pub struct MotionDetector {
 }
 
 impl MotionDetector {
-    /// Validates `params`.
+    /// Validates `params`: the threshold is a finite number >= 0.
     ///
     /// ```
-    /// use kestrel::dense::{DenseError, MotionDetector, MotionParams};
+    /// use kestrel::dense::{MotionDetector, MotionParams};
+    /// use kestrel::{Bound, ConfigError};
     /// let bad = MotionParams { threshold: -1.0, ..MotionParams::default() };
-    /// assert_eq!(MotionDetector::new(bad).unwrap_err(), DenseError::BadThreshold);
+    /// let refused = MotionDetector::new(bad).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "threshold", bound: Bound::FiniteNonNegative });
+    /// assert_eq!(refused.to_string(), "threshold must be a finite number >= 0");
     /// ```
-    pub fn new(params: MotionParams) -> Result<Self, DenseError> {
+    pub fn new(params: MotionParams) -> Result<Self, ConfigError> {
         if !params.threshold.is_finite() || params.threshold < 0.0 {
-            return Err(DenseError::BadThreshold);
+            return Err(ConfigError::new("threshold", Bound::FiniteNonNegative));
         }
         Ok(Self { params })
     }
@@ -210,7 +213,8 @@ impl MotionDetector {
     }
 
     /// Writes the raw motion mask of `nodes` into `mask` ([`mask_words`] words) and returns the
-    /// number of moving nodes.
+    /// number of moving nodes. A `mask` or `nodes` shorter than the layout is refused by
+    /// name.
     ///
     /// ```
     /// use kestrel::dense::{DominantMotion, GridLayout, GridNode, MotionDetector, MotionParams};
@@ -228,12 +232,13 @@ impl MotionDetector {
         nodes: &[GridNode],
         camera: &impl CameraMotion,
         mask: &mut [u32],
-    ) -> Result<usize, DenseError> {
-        if mask.len() < words_for(layout.len()) {
-            return Err(DenseError::MaskTooShort);
+    ) -> Result<usize, ConfigError> {
+        let words = words_for(layout.len());
+        if mask.len() < words {
+            return Err(ConfigError::min_len("mask", words));
         }
         if nodes.len() < layout.len() {
-            return Err(DenseError::NodesTooShort);
+            return Err(ConfigError::min_len("nodes", layout.len()));
         }
         let limit = self.params.threshold * self.params.threshold;
         let mut moving = 0usize;
@@ -247,7 +252,8 @@ impl MotionDetector {
 
     /// Marks the moving nodes, cleans the mask, and writes the boxes of its regions into
     /// `boxes`, largest first. `mask` ([`mask_words`] words) holds the cleaned mask afterwards;
-    /// `scratch` is [`motion_scratch_len`] words. See [`MotionDetector`]'s example.
+    /// `scratch` is [`motion_scratch_len`] words. A shorter `scratch`, `mask` or `nodes` is
+    /// refused by name. See [`MotionDetector`]'s example.
     ///
     /// No box is reported, and the mask is cleared, when the nodes cannot tell an object from
     /// the camera: when fewer than a quarter of the grid's nodes take part (a dark, blown-out
@@ -263,10 +269,11 @@ impl MotionDetector {
         mask: &mut [u32],
         scratch: &mut [u32],
         boxes: &mut [MotionBox],
-    ) -> Result<MotionSummary, DenseError> {
+    ) -> Result<MotionSummary, ConfigError> {
         let words = words_for(layout.len());
-        if scratch.len() < words.saturating_add(layout.len()) {
-            return Err(DenseError::MotionScratchTooShort);
+        let needed = words.saturating_add(layout.len());
+        if scratch.len() < needed {
+            return Err(ConfigError::min_len("scratch", needed));
         }
         let (temp, stack) = scratch.split_at_mut(words);
         let moving = self.mark(layout, nodes, camera, mask)?;
@@ -348,7 +355,7 @@ mod tests {
                 &mut scratch,
                 &mut boxes
             ),
-            Err(DenseError::MaskTooShort)
+            Err(ConfigError::min_len("mask", 2))
         );
         assert_eq!(
             detector.detect(
@@ -359,7 +366,7 @@ mod tests {
                 &mut scratch[..65],
                 &mut boxes
             ),
-            Err(DenseError::MotionScratchTooShort)
+            Err(ConfigError::min_len("scratch", 66))
         );
         assert_eq!(
             detector.detect(
@@ -370,7 +377,7 @@ mod tests {
                 &mut scratch,
                 &mut boxes
             ),
-            Err(DenseError::NodesTooShort)
+            Err(ConfigError::min_len("nodes", 64))
         );
     }
 

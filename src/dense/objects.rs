@@ -10,6 +10,24 @@ use super::DenseError;
 use crate::ego::{EgoMotion, EgoStatus};
 use crate::pyramid::Pyramid;
 use crate::q16::Point;
+use crate::{Bound, ConfigError};
+
+/// The settings [`MovingObjects::new`] checks, as paths from its [`MovingObjectsConfig`].
+const CONFIG_PATHS: [&str; 13] = [
+    "grid.cell",
+    "grid.max_residual",
+    "grid.camera_tolerance",
+    "grid.lk.window",
+    "grid.lk.max_level",
+    "grid.lk.max_iterations",
+    "grid.lk.epsilon",
+    "grid.lk.min_eigen_threshold",
+    "fit.start_radius",
+    "fit.inlier_radius",
+    "motion.threshold",
+    "outline.side",
+    "outline.reach",
+];
 
 /// How a [`MovingObjects`] is made.
 ///
@@ -245,15 +263,18 @@ pub enum ObjectsStage {
 /// `N` is the most boxes a frame pair gives and the persistence remembers.
 ///
 /// `OUTLINE` says whether the pipeline may outline: `false` refuses a configuration with an
-/// outline ([`DenseError::BadOutline`]) and compiles the outline out, so a program that has
+/// outline (`"outline"` must be `None`) and compiles the outline out, so a program that has
 /// no use for it does not link its code (9 KB of Cortex-M4 flash).
 ///
 /// ```
-/// use kestrel::dense::{DenseError, MovingObjects, MovingObjectsConfig};
+/// use kestrel::dense::{MovingObjects, MovingObjectsConfig};
+/// use kestrel::{Bound, ConfigError};
 /// let regions = MovingObjects::<8, false>::new(MovingObjectsConfig::grid_regions(), 160, 120);
 /// assert!(regions.is_ok());
 /// let outlined = MovingObjects::<8, false>::new(MovingObjectsConfig::default(), 160, 120);
-/// assert_eq!(outlined.err(), Some(DenseError::BadOutline));
+/// let refused = outlined.err().unwrap();
+/// assert_eq!(refused, ConfigError { field: "outline", bound: Bound::Absent });
+/// assert_eq!(refused.to_string(), "outline must be None");
 /// ```
 #[derive(Debug, Clone)]
 pub struct MovingObjects<const N: usize, const OUTLINE: bool = true> {
@@ -272,32 +293,45 @@ pub struct MovingObjects<const N: usize, const OUTLINE: bool = true> {
 }
 
 impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
-    /// A pipeline for `width` x `height` frames, its settings checked.
+    /// A pipeline for `width` x `height` frames, its settings checked: a refusal names the
+    /// setting by its path in `config` (`"grid.cell"`, `"grid.lk.window"`,
+    /// `"fit.inlier_radius"`, `"motion.threshold"`, `"outline.side"`, ...).
     ///
     /// ```
-    /// use kestrel::dense::{DenseError, DenseParams, MovingObjects, MovingObjectsConfig};
+    /// use kestrel::dense::{DenseParams, MovingObjects, MovingObjectsConfig};
+    /// use kestrel::{Bound, ConfigError};
     /// let config = MovingObjectsConfig::default();
     /// let objects = MovingObjects::<16>::new(config, 160, 120).unwrap();
     /// assert_eq!((objects.layout().cols(), objects.layout().rows()), (20, 15));
     /// let zero = MovingObjectsConfig { grid: DenseParams { cell: 0, ..config.grid }, ..config };
-    /// assert_eq!(MovingObjects::<16>::new(zero, 160, 120).err(), Some(DenseError::ZeroCell));
+    /// let refused = MovingObjects::<16>::new(zero, 160, 120).err().unwrap();
+    /// assert_eq!(refused, ConfigError { field: "grid.cell", bound: Bound::AtLeast(1) });
+    /// let large = MovingObjectsConfig { grid: DenseParams { cell: 200, ..config.grid }, ..config };
+    /// let refused = MovingObjects::<16>::new(large, 160, 120).err().unwrap();
+    /// assert_eq!(refused.to_string(), "grid.cell must be 1 to 120");
     /// let bad_fit = MovingObjectsConfig { fit: kestrel::dense::DominantFitParams {
     ///     inlier_radius: f32::NAN, ..config.fit }, ..config };
-    /// assert_eq!(MovingObjects::<16>::new(bad_fit, 160, 120).err(), Some(DenseError::BadThreshold));
+    /// let refused = MovingObjects::<16>::new(bad_fit, 160, 120).err().unwrap();
+    /// assert_eq!(refused.to_string(), "fit.inlier_radius must be a finite number above 0");
     /// ```
     pub fn new(
         config: MovingObjectsConfig,
         width: usize,
         height: usize,
-    ) -> Result<Self, DenseError> {
-        let flow = DenseFlow::new(config.grid)?;
-        let layout = flow.layout(width, height)?;
-        let detector = MotionDetector::new(config.motion)?;
+    ) -> Result<Self, ConfigError> {
+        let nested = |e: ConfigError| e.nested(&CONFIG_PATHS);
+        let flow = DenseFlow::new(config.grid).map_err(nested)?;
+        let layout = flow.layout(width, height).map_err(nested)?;
+        let detector = MotionDetector::new(config.motion).map_err(nested)?;
         if !OUTLINE && config.outline.is_some() {
-            return Err(DenseError::BadOutline);
+            return Err(ConfigError::new("outline", Bound::Absent));
         }
-        let outliner = config.outline.map(Outliner::new).transpose()?;
-        config.fit.check()?;
+        let outliner = config
+            .outline
+            .map(Outliner::new)
+            .transpose()
+            .map_err(nested)?;
+        config.fit.check().map_err(nested)?;
         Ok(Self {
             config,
             layout,
@@ -323,8 +357,9 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// remembered are forgotten. With `None`, the camera's motion is the grid's own dominant
     /// fit ([`ObjectsStep::fit`]).
     ///
-    /// An error (buffers too short, pyramids of another size) leaves no box reported and the
-    /// persistence as it was.
+    /// An error (pyramids of another size, or a buffer too short, named by its field in
+    /// [`MovingObjectsBuffers`]: `"buffers.nodes"`, `"buffers.lk_scratch"`, ...) leaves no box
+    /// reported and the persistence as it was.
     ///
     /// ```
     /// # use kestrel::dense::{
@@ -371,6 +406,10 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// let mut other = MovingObjects::<8>::new(MovingObjectsConfig::grid_regions(), 80, 48).unwrap();
     /// let refused = other.process(&still, &still, None, &mut buffers);
     /// assert_eq!(refused.err(), Some(DenseError::FrameSizeMismatch));
+    /// // A short buffer is named as the caller's field.
+    /// buffers.lk_scratch = &mut [];
+    /// let short = objects.process(&still, &still, None, &mut buffers).unwrap_err();
+    /// assert_eq!(short.to_string(), "buffers.lk_scratch must hold at least 711 elements");
     /// ```
     pub fn process(
         &mut self,
@@ -438,15 +477,17 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
                 let model = camera.model;
                 let predict = move |p: Point| model.apply_point(p).unwrap_or(p);
                 self.flow
-                    .compute_predicted(prev, next, nodes, scratch, &predict)?
+                    .compute_predicted(prev, next, nodes, scratch, &predict)
             }
-            None => self.flow.compute(prev, next, nodes, scratch)?,
-        };
+            None => self.flow.compute(prev, next, nodes, scratch),
+        }
+        .map_err(|e| named(e, "buffers.lk_scratch"))?;
         debug_assert_eq!(grid.layout, self.layout, "the grid of the checked frames");
         stage_ended(ObjectsStage::Grid);
         let (fit, found) = match (camera, known) {
             (None, _) => {
-                let fit = DominantMotion::fit(&self.layout, buffers.nodes, &self.config.fit)?;
+                let fit = DominantMotion::fit(&self.layout, buffers.nodes, &self.config.fit)
+                    .map_err(|e| named(DenseError::Config(e), "buffers.nodes"))?;
                 stage_ended(ObjectsStage::Camera);
                 let found = self.detect(prev, next, &fit.motion, buffers, &mut stage_ended)?;
                 (Some(fit), found)
@@ -482,14 +523,17 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
         stage_ended: &mut impl FnMut(ObjectsStage),
     ) -> Result<(MotionSummary, usize), DenseError> {
         let layout = &self.layout;
-        let mut summary = self.detector.detect(
-            layout,
-            buffers.nodes,
-            camera,
-            buffers.mask,
-            buffers.motion_scratch,
-            &mut self.boxes,
-        )?;
+        let mut summary = self
+            .detector
+            .detect(
+                layout,
+                buffers.nodes,
+                camera,
+                buffers.mask,
+                buffers.motion_scratch,
+                &mut self.boxes,
+            )
+            .map_err(|e| named(DenseError::Config(e), "buffers.motion_scratch"))?;
         stage_ended(ObjectsStage::Regions);
         let mut candidates = summary.boxes;
         // Without OUTLINE, the branch and the outline's code are compiled out.
@@ -504,17 +548,19 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
                 .append_expected(&mut self.boxes, candidates);
             let regions = self.boxes.get(..candidates);
             debug_assert!(regions.is_some(), "more candidates than boxes");
-            candidates = outliner.outline(
-                prev,
-                next,
-                camera,
-                layout,
-                buffers.nodes,
-                buffers.mask,
-                regions.unwrap_or(&[]),
-                buffers.outline_scratch,
-                &mut self.outlines,
-            )?;
+            candidates = outliner
+                .outline(
+                    prev,
+                    next,
+                    camera,
+                    layout,
+                    buffers.nodes,
+                    buffers.mask,
+                    regions.unwrap_or(&[]),
+                    buffers.outline_scratch,
+                    &mut self.outlines,
+                )
+                .map_err(|e| named(e, "buffers.outline_scratch"))?;
             core::mem::swap(&mut self.boxes, &mut self.outlines);
             stage_ended(ObjectsStage::Outline);
         }
@@ -567,5 +613,22 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// ```
     pub fn config(&self) -> &MovingObjectsConfig {
         &self.config
+    }
+}
+
+/// `e` with a refused buffer named as the caller's field in [`MovingObjectsBuffers`]; the
+/// stage's own scratch (its `"scratch"`, and the parts the motion detector cuts from it) is
+/// `scratch`.
+fn named(e: DenseError, scratch: &'static str) -> DenseError {
+    match e {
+        DenseError::Config(e) => DenseError::Config(e.renamed(&[
+            ("nodes", "buffers.nodes"),
+            ("mask", "buffers.mask"),
+            ("scratch", scratch),
+            ("temp", scratch),
+            ("unvisited", scratch),
+            ("stack", scratch),
+        ])),
+        other => other,
     }
 }

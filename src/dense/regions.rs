@@ -5,8 +5,8 @@
 
 use super::grid::{GridLayout, GridNode, NEIGHBOURS};
 use super::mask::{mask_contains, mask_set, words_for};
-use super::DenseError;
 use crate::q16::{Point, Q16};
+use crate::ConfigError;
 
 /// A moving region: the pixels its nodes' cells cover in the previous frame, and its flow.
 ///
@@ -173,7 +173,8 @@ impl Default for BoxRules {
 /// moving object picks up the object's motion, so the cells of a region overhang the object by
 /// about half a window.
 ///
-/// `unvisited` is a mask's worth of scratch, `stack` one `u32` per node ([`GridLayout::len`]).
+/// `unvisited` is a mask's worth of scratch, `stack` one `u32` per node ([`GridLayout::len`]);
+/// a shorter `mask`, `unvisited` or `stack` is refused by name.
 ///
 /// ```
 /// use kestrel::dense::{find_boxes, BoxRules, GridLayout, GridNode, MotionBox};
@@ -188,6 +189,8 @@ impl Default for BoxRules {
 /// let found = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 16], &rules, &mut boxes).unwrap();
 /// assert_eq!((found.regions, found.boxes), (1, 1));
 /// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h, boxes[0].nodes), (2, 2, 12, 12, 3));
+/// let short = find_boxes(&layout, &nodes, &mask, &mut [0], &mut [0; 8], &rules, &mut boxes);
+/// assert_eq!(short.unwrap_err().to_string(), "stack must hold at least 16 elements");
 /// ```
 pub fn find_boxes(
     layout: &GridLayout,
@@ -197,13 +200,16 @@ pub fn find_boxes(
     stack: &mut [u32],
     rules: &BoxRules,
     boxes: &mut [MotionBox],
-) -> Result<RegionCount, DenseError> {
+) -> Result<RegionCount, ConfigError> {
     let words = words_for(layout.len());
     if mask.len() < words {
-        return Err(DenseError::MaskTooShort);
+        return Err(ConfigError::min_len("mask", words));
     }
-    if unvisited.len() < words || stack.len() < layout.len() {
-        return Err(DenseError::MotionScratchTooShort);
+    if unvisited.len() < words {
+        return Err(ConfigError::min_len("unvisited", words));
+    }
+    if stack.len() < layout.len() {
+        return Err(ConfigError::min_len("stack", layout.len()));
     }
     if let (Some(to), Some(from)) = (unvisited.get_mut(..words), mask.get(..words)) {
         to.copy_from_slice(from);
@@ -448,14 +454,14 @@ mod tests {
                 &mut boxes[..boxes_len],
             )
         };
-        assert_eq!(run(&[0], 2, 64, 1), Err(DenseError::MaskTooShort));
+        assert_eq!(run(&[0], 2, 64, 1), Err(ConfigError::min_len("mask", 2)));
         assert_eq!(
             run(&[0; 2], 1, 64, 1),
-            Err(DenseError::MotionScratchTooShort)
+            Err(ConfigError::min_len("unvisited", 2))
         );
         assert_eq!(
             run(&[0; 2], 2, 63, 1),
-            Err(DenseError::MotionScratchTooShort)
+            Err(ConfigError::min_len("stack", 64))
         );
         // No room for boxes is not an error: the regions are still counted.
         assert_eq!(

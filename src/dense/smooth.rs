@@ -1,8 +1,8 @@
 //! Measured nodes averaged with the neighbours that move alike: [`smooth_tracked`].
 
 use super::grid::{grid_side, GridLayout, GridNode, NodeStatus, NEIGHBOURS};
-use super::DenseError;
 use crate::q16::{Point, Q16};
+use crate::{Bound, ConfigError};
 
 /// The `rows` [`smooth_tracked`] needs for a `width` px frame and `cell` px cells: two rows of
 /// nodes.
@@ -59,9 +59,8 @@ pub const SMOOTH_MIN_AFFINE: usize = 4;
 /// reaches a node further ([`SMOOTH_PASSES`]): a wider average where the surface goes on,
 /// still bounded by the gate where it ends.
 ///
-/// Errors: [`DenseError::BadThreshold`] for a gate that is negative, NaN or beyond a Q16
-/// flow (32,768 px); [`DenseError::NodesTooShort`] and [`DenseError::SmoothScratchTooShort`]
-/// for short buffers. Nothing is changed then.
+/// Errors: a [`ConfigError`] naming `"gate"` for a gate that is negative, NaN or beyond a Q16
+/// flow (32,768 px), `"nodes"` or `"rows"` for short buffers. Nothing is changed then.
 ///
 /// ```
 /// use kestrel::dense::{smooth_scratch_len, smooth_tracked, GridLayout, GridNode};
@@ -78,24 +77,27 @@ pub const SMOOTH_MIN_AFFINE: usize = 4;
 /// assert!((dx - 2.0).abs() < 0.05 && dy == 0.0, "{dx}");
 /// // The object's node has no neighbour within the gate: it keeps its flow.
 /// assert_eq!(nodes[0].flow.to_f32(), (5.0, 1.0));
+/// let refused = smooth_tracked(&layout, &mut nodes, -1.0, &mut rows).unwrap_err();
+/// assert_eq!(refused.to_string(), "gate must be a number >= 0 and below 32768");
 /// ```
 pub fn smooth_tracked(
     layout: &GridLayout,
     nodes: &mut [GridNode],
     gate: f32,
     rows: &mut [Point],
-) -> Result<usize, DenseError> {
+) -> Result<usize, ConfigError> {
     let gate = match Q16::checked_from_num(gate) {
         Some(g) if gate >= 0.0 => g.to_bits(),
-        _ => return Err(DenseError::BadThreshold),
+        _ => return Err(ConfigError::new("gate", Bound::NonNegativeBelow(32_768))),
     };
     let cols = layout.cols();
     let nodes = nodes
         .get_mut(..layout.len())
-        .ok_or(DenseError::NodesTooShort)?;
+        .ok_or(ConfigError::min_len("nodes", layout.len()))?;
+    let needed = smooth_scratch_len(layout.width(), layout.cell());
     let rows = rows
-        .get_mut(..smooth_scratch_len(layout.width(), layout.cell()))
-        .ok_or(DenseError::SmoothScratchTooShort)?;
+        .get_mut(..needed)
+        .ok_or(ConfigError::min_len("rows", needed))?;
     let (mut above, mut current) = rows.split_at_mut(cols);
     let mut smoothed = 0usize;
     for row in 0..layout.rows() {
@@ -430,16 +432,16 @@ mod tests {
         for gate in [f32::NAN, -0.1, f32::INFINITY, 1e9] {
             assert_eq!(
                 smooth_tracked(&layout, &mut nodes, gate, &mut rows),
-                Err(DenseError::BadThreshold)
+                Err(ConfigError::new("gate", Bound::NonNegativeBelow(32_768)))
             );
         }
         assert_eq!(
             smooth_tracked(&layout, &mut nodes[..8], 0.5, &mut rows),
-            Err(DenseError::NodesTooShort)
+            Err(ConfigError::min_len("nodes", 9))
         );
         assert_eq!(
             smooth_tracked(&layout, &mut nodes, 0.5, &mut rows[..5]),
-            Err(DenseError::SmoothScratchTooShort)
+            Err(ConfigError::min_len("rows", 6))
         );
     }
 

@@ -259,6 +259,12 @@ pub enum LkError {
     LengthMismatch,
 }
 
+impl From<ConfigError> for LkError {
+    fn from(e: ConfigError) -> Self {
+        LkError::Config(e)
+    }
+}
+
 impl core::fmt::Display for LkError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {

@@ -257,6 +257,12 @@ pub enum TrackerError {
     NotThePreviousFrame,
 }
 
+impl From<ConfigError> for TrackerError {
+    fn from(e: ConfigError) -> Self {
+        TrackerError::Config(e)
+    }
+}
+
 impl core::fmt::Display for TrackerError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {

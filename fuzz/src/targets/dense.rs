@@ -15,7 +15,7 @@ use kestrel::dense::{
 };
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
-use kestrel::Point;
+use kestrel::{Bound, ConfigError, Point};
 
 #[derive(Arbitrary, Debug)]
 struct Input {
@@ -180,8 +180,14 @@ fn check_smoothing(layout: &GridLayout, nodes: &mut [GridNode], gate: f32, delta
                 check_node(layout, i, after, passes);
             }
         }
-        Err(DenseError::BadThreshold) => assert!(!(0.0..=32767.0).contains(&gate), "{gate}"),
-        Err(DenseError::SmoothScratchTooShort) => assert!(rows.len() < needed),
+        Err(ConfigError {
+            field: "gate",
+            bound: Bound::NonNegativeBelow(32_768),
+        }) => assert!(!(0.0..=32767.0).contains(&gate), "{gate}"),
+        Err(ConfigError {
+            field: "rows",
+            bound: Bound::MinLen(len),
+        }) => assert!(rows.len() < needed && len == needed),
         Err(other) => panic!("unexpected refusal {other:?}"),
     }
 }
@@ -195,13 +201,24 @@ fn check_refusal(
     short_nodes: bool,
     short_scratch: bool,
 ) {
-    match e {
-        DenseError::FrameSizeMismatch => assert!((w, h) != (next.width(), next.height())),
-        DenseError::CellTooLarge => assert!(params.cell > w || params.cell > h),
-        DenseError::NodesTooShort => assert!(short_nodes),
-        DenseError::ScratchTooSmall => assert!(short_scratch),
-        DenseError::FrameTooSmall => {}
-        other => panic!("unexpected refusal {other:?}"),
+    let refused = |field| match e {
+        DenseError::Config(ConfigError { field: f, bound }) if f == field => Some(bound),
+        _ => None,
+    };
+    if e == DenseError::FrameSizeMismatch {
+        assert!((w, h) != (next.width(), next.height()));
+    } else if let Some(bound) = refused("cell") {
+        assert!(params.cell > w || params.cell > h);
+        let max = w.min(h) as u32;
+        assert_eq!(bound, Bound::Range { min: 1, max });
+    } else if let Some(bound) = refused("nodes") {
+        assert!(short_nodes);
+        assert_eq!(bound, Bound::MinLen(grid_len(w, h, params.cell)));
+    } else if let Some(bound) = refused("scratch") {
+        assert!(short_scratch);
+        assert_eq!(bound, Bound::MinLen(scratch_len(params.lk.window)));
+    } else if e != DenseError::FrameTooSmall {
+        panic!("unexpected refusal {e:?}");
     }
 }
 

@@ -20,6 +20,7 @@ use kestrel::dense::{
 };
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{level_size, pyramid_storage_len, Pyramid};
+use kestrel::{Bound, ConfigError};
 
 /// Boxes the persistence remembers: few, so that a full list is reached.
 const REMEMBERED: usize = 4;
@@ -130,8 +131,14 @@ pub fn run(data: &[u8]) {
         Some((params, scratch)) => match Outliner::new(params) {
             Ok(outliner) => Some((outliner, scratch)),
             Err(e) => {
-                assert_eq!(e, DenseError::BadOutline);
-                assert!(!(8..=255).contains(&params.side) || params.reach > 128);
+                let side = !(8..=255).contains(&params.side);
+                let (field, bound) = if side {
+                    ("side", Bound::Range { min: 8, max: 255 })
+                } else {
+                    ("reach", Bound::AtMost(128))
+                };
+                assert_eq!(e, ConfigError { field, bound });
+                assert!(side || params.reach > 128);
                 return;
             }
         },
@@ -291,7 +298,11 @@ impl Pipeline {
             let needed = outline_scratch_len(outliner.params().side, outliner.params().reach);
             match found {
                 Err(e) => {
-                    assert_eq!(e, DenseError::ScratchTooSmall);
+                    let short = ConfigError {
+                        field: "scratch",
+                        bound: Bound::MinLen(needed),
+                    };
+                    assert_eq!(e, DenseError::Config(short));
                     assert!(*scratch_len < needed, "valid scratch refused");
                     return Ok(());
                 }

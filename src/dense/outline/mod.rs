@@ -20,8 +20,10 @@ use super::grid::{GridLayout, GridNode};
 use super::motion::CameraMotion;
 use super::regions::MotionBox;
 use super::DenseError;
+use crate::config_error::bound_number;
 use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
+use crate::{Bound, ConfigError};
 use area::Area;
 use boxes::push_new;
 use differences::SUB_BITS;
@@ -246,18 +248,27 @@ pub struct Outliner {
 
 impl Outliner {
     /// Validates `params`: a side of [`OUTLINE_MIN_SIDE`] to [`OUTLINE_MAX_SIDE`] px and a reach of at most
-    /// [`OUTLINE_MAX_REACH`] px.
+    /// [`OUTLINE_MAX_REACH`] px (refused as `"side"` or `"reach"`).
     ///
     /// ```
-    /// use kestrel::dense::{DenseError, OutlineParams, Outliner, OUTLINE_MAX_SIDE};
+    /// use kestrel::dense::{OutlineParams, Outliner, OUTLINE_MAX_SIDE};
+    /// use kestrel::{Bound, ConfigError};
     /// let wide = OutlineParams { side: OUTLINE_MAX_SIDE + 1, ..OutlineParams::default() };
-    /// assert_eq!(Outliner::new(wide).unwrap_err(), DenseError::BadOutline);
+    /// let refused = Outliner::new(wide).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "side", bound: Bound::Range { min: 8, max: 255 } });
+    /// assert_eq!(refused.to_string(), "side must be 8 to 255");
     /// ```
-    pub fn new(params: OutlineParams) -> Result<Self, DenseError> {
-        if !(OUTLINE_MIN_SIDE..=OUTLINE_MAX_SIDE).contains(&params.side)
-            || params.reach > OUTLINE_MAX_REACH
-        {
-            return Err(DenseError::BadOutline);
+    pub fn new(params: OutlineParams) -> Result<Self, ConfigError> {
+        if !(OUTLINE_MIN_SIDE..=OUTLINE_MAX_SIDE).contains(&params.side) {
+            let bound = Bound::Range {
+                min: bound_number(OUTLINE_MIN_SIDE),
+                max: bound_number(OUTLINE_MAX_SIDE),
+            };
+            return Err(ConfigError::new("side", bound));
+        }
+        if params.reach > OUTLINE_MAX_REACH {
+            let bound = Bound::AtMost(bound_number(OUTLINE_MAX_REACH));
+            return Err(ConfigError::new("reach", bound));
         }
         Ok(Self { params })
     }
@@ -305,11 +316,13 @@ impl Outliner {
             return Err(DenseError::FrameSizeMismatch);
         }
         if nodes.len() < layout.len() {
-            return Err(DenseError::NodesTooShort);
+            let short = ConfigError::min_len("nodes", layout.len());
+            return Err(DenseError::Config(short));
         }
-        let Some(mut scratch) = OutlineScratch::split(scratch, self.params.side, self.params.reach)
-        else {
-            return Err(DenseError::ScratchTooSmall);
+        let (side, reach) = (self.params.side, self.params.reach);
+        let Some(mut scratch) = OutlineScratch::split(scratch, side, reach) else {
+            let short = ConfigError::min_len("scratch", outline_scratch_len(side, reach));
+            return Err(DenseError::Config(short));
         };
         let frames = (&base, &next_base);
         let level1 = prev.level(1).zip(next.level(1));
@@ -623,12 +636,19 @@ mod tests {
             side: OUTLINE_MIN_SIDE - 1,
             ..OutlineParams::default()
         };
-        assert_eq!(Outliner::new(narrow).unwrap_err(), DenseError::BadOutline);
+        let sides = Bound::Range { min: 8, max: 255 };
+        assert_eq!(
+            Outliner::new(narrow).unwrap_err(),
+            ConfigError::new("side", sides)
+        );
         let far = OutlineParams {
             reach: OUTLINE_MAX_REACH + 1,
             ..OutlineParams::default()
         };
-        assert_eq!(Outliner::new(far).unwrap_err(), DenseError::BadOutline);
+        assert_eq!(
+            Outliner::new(far).unwrap_err(),
+            ConfigError::new("reach", Bound::AtMost(128))
+        );
         let a = [0u8; W * H];
         let view = ImageView::packed(&a, W, H).unwrap();
         let pyramid = Pyramid::build(view, 0, &mut []).unwrap();
@@ -650,11 +670,18 @@ mod tests {
                 &mut [],
             )
         };
-        assert_eq!(run(&mut short, &nodes), Err(DenseError::ScratchTooSmall));
+        let needed = outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8);
+        assert_eq!(
+            run(&mut short, &nodes),
+            Err(DenseError::Config(ConfigError::min_len("scratch", needed)))
+        );
         let mut scratch = [0u16; outline_scratch_len(OutlineParams::DEFAULT_SIDE, 8)];
         assert_eq!(
             run(&mut scratch, &nodes[1..]),
-            Err(DenseError::NodesTooShort)
+            Err(DenseError::Config(ConfigError::min_len(
+                "nodes",
+                grid_len(W, H, CELL)
+            )))
         );
         assert_eq!(run(&mut scratch, &nodes), Ok(0));
     }

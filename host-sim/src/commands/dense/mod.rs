@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use kestrel::dense::{DenseError, DenseParams, GridLayout, GridNode, NodeStatus};
 use kestrel::lk::LkParams;
+use kestrel::{Bound, ConfigError};
 
 use super::{check_same_size, time_core, CommandError};
 use crate::cli::values::{self, path};
@@ -223,7 +224,10 @@ pub(crate) fn refused(
     (width, height): (usize, usize),
 ) -> CommandError {
     match error {
-        RunError::Dense(DenseError::CellTooLarge) => CommandError::Processing(format!(
+        RunError::Config(ConfigError {
+            field: "cell" | "grid.cell",
+            bound: Bound::Range { .. },
+        }) => CommandError::Processing(format!(
             "--cell: {} px is larger than the {width}x{height} frames",
             params.cell
         )),

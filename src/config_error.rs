@@ -18,15 +18,28 @@
 /// must be, with the actual numbers; `Display` writes both as one sentence.
 ///
 /// ```
-/// use kestrel::frame::ImageView;
-/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
 /// use kestrel::{Bound, ConfigError};
-/// let pixels = [0u8; 160 * 120];
-/// let frame = ImageView::packed(&pixels, 160, 120).unwrap();
-/// let refused = Pyramid::build(frame, 3, &mut [0u8; 100]).unwrap_err();
-/// let needed = pyramid_storage_len(160, 120, 3);
-/// assert_eq!(refused, ConfigError { field: "storage", bound: Bound::MinLen(needed) });
-/// assert_eq!(refused.to_string(), "storage must hold at least 6300 elements");
+/// let buffers = || TrackerBuffers {
+///     storage: &mut [],
+///     lk_scratch: &mut [],
+///     detect_scratch: &mut [],
+///     candidates: &mut [],
+/// };
+/// let config = TrackerConfig { max_tracks: 0, ..TrackerConfig::default() };
+/// let refused = Tracker::<4>::new(config, 160, 120, buffers()).unwrap_err();
+/// assert_eq!(refused, ConfigError { field: "max_tracks", bound: Bound::Range { min: 1, max: 4 } });
+/// assert_eq!(refused.to_string(), "max_tracks must be 1 to 4");
+/// // A nested setting by its path, a buffer by its field and the length it needs.
+/// let mut config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+/// config.lk.window = 64;
+/// let refused = Tracker::<4>::new(config, 160, 120, buffers()).unwrap_err();
+/// assert_eq!(refused.to_string(), "lk.window must be odd, 3 to 63");
+/// config.lk.window = 21;
+/// let refused = Tracker::<4>::new(config, 160, 120, buffers()).unwrap_err();
+/// let needed = tracker_storage_len(160, 120, config.pyramid_levels());
+/// assert_eq!(refused, ConfigError { field: "buffers.storage", bound: Bound::MinLen(needed) });
+/// assert_eq!(refused.to_string(), "buffers.storage must hold at least 13080 elements");
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -126,8 +139,8 @@ impl core::fmt::Display for ConfigError {
     ///
     /// ```
     /// use kestrel::{Bound, ConfigError};
-    /// let short = ConfigError { field: "buffers.storage", bound: Bound::MinLen(57_600) };
-    /// assert_eq!(short.to_string(), "buffers.storage must hold at least 57600 elements");
+    /// let short = ConfigError { field: "buffers.storage", bound: Bound::MinLen(13_080) };
+    /// assert_eq!(short.to_string(), "buffers.storage must hold at least 13080 elements");
     /// ```
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(f, "{} {}", self.field, self.bound)

@@ -57,15 +57,54 @@
 //! ```
 
 use crate::ego::{
-    Camera, CameraError, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind,
-    OpticalFlow, OpticalFlowRad, Ransac, RansacError, RansacParams, Rotation,
+    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, OpticalFlow,
+    OpticalFlowRad, Ransac, RansacError, RansacParams, Rotation,
 };
 use crate::frame::ImageView;
 use crate::q16::Point;
 use crate::track::{
     FrameReport, Track, Tracker, TrackerBuffers, TrackerConfig, TrackerError, TrackerStage,
 };
+use crate::ConfigError;
 use heapless::Vec;
+
+/// The settings [`FlowSensor::new`] checks, as paths from its [`FlowSensorConfig`], one list
+/// per part: a refusal from the tracker, the fit or the camera is named so.
+const TRACKER_PATHS: [&str; 20] = [
+    "tracker.lk.window",
+    "tracker.lk.max_level",
+    "tracker.lk.max_iterations",
+    "tracker.lk.epsilon",
+    "tracker.lk.min_eigen_threshold",
+    "tracker.max_tracks",
+    "tracker.refill_below",
+    "tracker.detect_level",
+    "tracker.grid.cols",
+    "tracker.grid.rows",
+    "tracker.detector.block",
+    "tracker.detector.quality_level",
+    "tracker.fb_threshold",
+    "tracker.max_residual",
+    "tracker.residual_ratio",
+    "tracker.min_correlation",
+    "tracker.max_relocation",
+    "tracker.fine_search",
+    "tracker.fb_every",
+    "tracker.fb_doubt",
+];
+const RANSAC_PATHS: [&str; 3] = [
+    "ransac.threshold",
+    "ransac.max_iterations",
+    "ransac.confidence",
+];
+const CAMERA_PATHS: [&str; 6] = [
+    "camera.focal_x",
+    "camera.focal_y",
+    "camera.principal_x",
+    "camera.principal_y",
+    "camera.k1",
+    "camera.k2",
+];
 
 /// How a [`FlowSensor`] is made.
 ///
@@ -115,28 +154,38 @@ impl FlowSensorConfig {
     }
 }
 
-/// Why a [`FlowSensor`] could not be made, or could not take a frame.
+/// Why a [`FlowSensor`] could not take a frame (a sensor that could not be made is a
+/// [`ConfigError`] of [`FlowSensor::new`]).
 ///
 /// ```
-/// use kestrel::ego::{CameraError, CameraParams};
-/// use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError};
-/// use kestrel::track::TrackerBuffers;
-/// let camera = CameraParams { focal_x: -1.0, ..CameraParams::from_horizontal_fov(64, 64, 1.0) };
-/// let buffers = TrackerBuffers {
-///     storage: &mut [], lk_scratch: &mut [], detect_scratch: &mut [], candidates: &mut [],
-/// };
-/// let made = FlowSensor::<25>::new(FlowSensorConfig::new(camera), 64, 64, buffers);
-/// assert_eq!(made.err(), Some(FlowSensorError::Camera(CameraError::BadFocalLength)));
+/// # use kestrel::ego::CameraParams;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError};
+/// # use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig, TrackerError};
+/// # use kestrel::{detect::Corner, lk::scratch_len};
+/// # let config = FlowSensorConfig::new(CameraParams::from_horizontal_fov(64, 64, 1.0));
+/// # const PRESET: TrackerConfig = TrackerConfig::flow_sensor();
+/// # let mut storage = [0u8; tracker_storage_len(64, 64, PRESET.pyramid_levels())];
+/// # let mut lk_scratch = [0i16; scratch_len(PRESET.lk.window)];
+/// # let mut candidates = [Corner::default(); 75];
+/// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #     detect_scratch: &mut [], candidates: &mut candidates };
+/// let mut sensor = FlowSensor::<25>::new(config, 64, 64, buffers).unwrap();
+/// let flat = [90u8; 64 * 64];
+/// let frame = ImageView::packed(&flat, 64, 64).unwrap();
+/// // Frames before the first one.
+/// let refused = sensor.process(frame, frame, 10_000, None).unwrap_err();
+/// assert_eq!(refused, FlowSensorError::Tracker(TrackerError::NotStarted));
+/// assert_eq!(refused.to_string(), "tracker: no previous frame: call start first");
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FlowSensorError {
-    /// The tracker refused its settings, its buffers or the frame.
+    /// The tracker refused the frame.
     Tracker(TrackerError),
-    /// The motion fit refused its settings.
+    /// The motion fit could not run on the correspondences (never expected: there is one
+    /// inlier flag per correspondence, and at most `N` of them).
     Ransac(RansacError),
-    /// The camera's parameters are not a camera.
-    Camera(CameraError),
 }
 
 impl core::fmt::Display for FlowSensorError {
@@ -144,7 +193,6 @@ impl core::fmt::Display for FlowSensorError {
         match self {
             FlowSensorError::Tracker(e) => write!(f, "tracker: {e}"),
             FlowSensorError::Ransac(e) => write!(f, "motion fit: {e}"),
-            FlowSensorError::Camera(e) => write!(f, "camera: {e}"),
         }
     }
 }
@@ -186,18 +234,41 @@ pub struct FlowSensor<'m, const N: usize> {
 impl<'m, const N: usize> FlowSensor<'m, N> {
     /// A sensor for `width` x `height` frames over the caller's tracker `buffers`.
     ///
-    /// See the [module documentation](self) for a whole example and [`FlowSensorError`] for a
-    /// refusal.
+    /// A refusal names the setting by its path in `config` (`"camera.focal_x"`,
+    /// `"ransac.threshold"`, `"tracker.max_tracks"`, `"tracker.lk.window"`), or the frame size
+    /// (`"width"`, `"height"`) or the buffer (`"buffers.storage"`, ...) as
+    /// [`Tracker::new`] does. See the [module documentation](self) for a whole example.
+    ///
+    /// ```
+    /// use kestrel::ego::CameraParams;
+    /// use kestrel::sensor::{FlowSensor, FlowSensorConfig};
+    /// use kestrel::track::TrackerBuffers;
+    /// use kestrel::{Bound, ConfigError};
+    /// let buffers = || TrackerBuffers {
+    ///     storage: &mut [], lk_scratch: &mut [], detect_scratch: &mut [], candidates: &mut [],
+    /// };
+    /// let good = FlowSensorConfig::new(CameraParams::from_horizontal_fov(64, 64, 1.0));
+    /// let camera = CameraParams { focal_x: -1.0, ..good.camera };
+    /// let made = FlowSensor::<25>::new(FlowSensorConfig { camera, ..good }, 64, 64, buffers());
+    /// let range = Bound::Range { min: 1, max: 100_000 };
+    /// assert_eq!(made.err(), Some(ConfigError { field: "camera.focal_x", bound: range }));
+    /// let mut wide = good;
+    /// wide.tracker.lk.window = 64;
+    /// let made = FlowSensor::<25>::new(wide, 64, 64, buffers());
+    /// assert_eq!(made.err().unwrap().to_string(), "tracker.lk.window must be odd, 3 to 63");
+    /// let made = FlowSensor::<25>::new(good, 64, 64, buffers());
+    /// assert_eq!(made.err().unwrap().field, "buffers.storage");
+    /// ```
     pub fn new(
         config: FlowSensorConfig,
         width: usize,
         height: usize,
         buffers: TrackerBuffers<'m>,
-    ) -> Result<Self, FlowSensorError> {
-        let camera = Camera::new(config.camera).map_err(FlowSensorError::Camera)?;
-        let ransac = Ransac::new(config.ransac).map_err(FlowSensorError::Ransac)?;
+    ) -> Result<Self, ConfigError> {
+        let camera = Camera::new(config.camera).map_err(|e| e.nested(&CAMERA_PATHS))?;
+        let ransac = Ransac::new(config.ransac).map_err(|e| e.nested(&RANSAC_PATHS))?;
         let tracker = Tracker::new(config.tracker, width, height, buffers)
-            .map_err(FlowSensorError::Tracker)?;
+            .map_err(|e| e.nested(&TRACKER_PATHS))?;
         Ok(Self {
             tracker,
             ransac,

@@ -8,8 +8,8 @@
 use host_sim::synth::rotation::{mul, rotation, transpose, Mat3};
 use host_sim::synth::{Homography as Warp, SplitMix64};
 use kestrel::ego::{
-    Camera, CameraError, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography,
-    ModelKind, OpticalFlowRad, Ransac, RansacParams, Rotation,
+    Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, Homography, ModelKind,
+    OpticalFlowRad, Ransac, RansacParams, Rotation,
 };
 use kestrel::Point;
 
@@ -694,6 +694,13 @@ fn bad_gyro_and_camera_values_are_rejected() {
     }
     // Zero, negative, NaN and infinite focal lengths.
     let base = CameraParams::from_horizontal_fov(160, 120, 1.0);
+    let focal_refused = |field| kestrel::ConfigError {
+        field,
+        bound: kestrel::Bound::Range {
+            min: 1,
+            max: 100_000,
+        },
+    };
     for focal in [0.0, -100.0, f32::NAN, f32::INFINITY, 0.5] {
         let params = CameraParams {
             focal_x: focal,
@@ -701,7 +708,7 @@ fn bad_gyro_and_camera_values_are_rejected() {
         };
         assert_eq!(
             Camera::new(params),
-            Err(CameraError::BadFocalLength),
+            Err(focal_refused("focal_x")),
             "{focal}"
         );
         let params = CameraParams {
@@ -710,7 +717,7 @@ fn bad_gyro_and_camera_values_are_rejected() {
         };
         assert_eq!(
             Camera::new(params),
-            Err(CameraError::BadFocalLength),
+            Err(focal_refused("focal_y")),
             "{focal}"
         );
     }
@@ -718,11 +725,7 @@ fn bad_gyro_and_camera_values_are_rejected() {
     // more a negative one.
     for fov in [0.0, std::f32::consts::PI, 4.0, f32::NAN] {
         let params = CameraParams::from_horizontal_fov(160, 120, fov);
-        assert_eq!(
-            Camera::new(params),
-            Err(CameraError::BadFocalLength),
-            "{fov}"
-        );
+        assert_eq!(Camera::new(params), Err(focal_refused("focal_x")), "{fov}");
     }
 }
 

@@ -544,149 +544,274 @@ fn small_config() -> TrackerConfig {
     }
 }
 
+/// Every field of `TrackerConfig`, refused at each bound it has and accepted at the edges it
+/// allows, by `Tracker::new` and by a flow sensor holding it: a refusal names the field by its
+/// path, as the caller writes it (`"lk.window"`, `"grid.cols"`; `"tracker.lk.window"` in a
+/// sensor's configuration), with the bound it broke.
 #[test]
-fn bad_settings_are_refused_when_the_tracker_is_made() {
-    use kestrel::detect::{Grid, ShiTomasi};
+fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
+    use kestrel::detect::{Fast, Grid, ShiTomasi};
+    use kestrel::ego::CameraParams;
+    use kestrel::pyramid::PyramidFilter;
+    use kestrel::sensor::{FlowSensor, FlowSensorConfig};
     use kestrel::track::Detector;
+    use kestrel::{Bound, ConfigError};
 
     let base = small_config();
-    let cases: Vec<(TrackerConfig, TrackerError)> = vec![
+    // Every field, so that a new one is not forgotten here: the refusals and acceptances
+    // below cover each of them.
+    let TrackerConfig {
+        lk: _,
+        max_tracks: _,
+        refill_below: _,
+        detector: _,
+        detect_level: _,
+        grid: _,
+        border: _,
+        min_distance: _,
+        fb_threshold: _,
+        max_residual: _,
+        residual_ratio: _,
+        min_correlation: _,
+        relocate_every: _,
+        relocate_from_age: _,
+        max_relocation: _,
+        constant_velocity: _,
+        fine_search: _,
+        fb_every: _,
+        fb_doubt: _,
+        pyramid: _,
+    } = base;
+    let with = |change: &dyn Fn(&mut TrackerConfig)| {
+        let mut config = base;
+        change(&mut config);
+        config
+    };
+    let window = Bound::OddRange { min: 3, max: 63 };
+    let cells = Bound::Range { min: 1, max: 32 };
+    let tracks = Bound::Range {
+        min: 1,
+        max: CAPACITY as u32,
+    };
+    let shi_tomasi = |block, quality_level| {
+        Detector::ShiTomasi(ShiTomasi {
+            block,
+            quality_level,
+            min_distance: 0,
+        })
+    };
+    let refused: Vec<(&str, Bound, TrackerConfig)> = vec![
+        ("lk.window", window, with(&|c| c.lk.window = 20)),
+        ("lk.window", window, with(&|c| c.lk.window = 1)),
+        ("lk.window", window, with(&|c| c.lk.window = 65)),
         (
-            TrackerConfig {
-                max_tracks: 0,
-                ..base
-            },
-            TrackerError::BadMaxTracks,
+            "lk.max_level",
+            Bound::AtMost(7),
+            with(&|c| c.lk.max_level = 8),
         ),
         (
-            TrackerConfig {
-                max_tracks: CAPACITY + 1,
-                ..base
-            },
-            TrackerError::BadMaxTracks,
+            "lk.max_iterations",
+            Bound::AtLeast(1),
+            with(&|c| c.lk.max_iterations = 0),
         ),
         (
-            TrackerConfig {
-                refill_below: 21,
-                ..base
-            },
-            TrackerError::BadRefillThreshold,
+            "lk.epsilon",
+            Bound::FiniteNonNegative,
+            with(&|c| c.lk.epsilon = -0.1),
         ),
         (
-            TrackerConfig {
-                detect_level: 8,
-                ..base
-            },
-            TrackerError::BadDetectLevel,
+            "lk.epsilon",
+            Bound::FiniteNonNegative,
+            with(&|c| c.lk.epsilon = f32::INFINITY),
         ),
         (
-            TrackerConfig {
-                fb_threshold: f32::NAN,
-                ..base
-            },
-            TrackerError::BadFbThreshold,
+            "lk.min_eigen_threshold",
+            Bound::FiniteNonNegative,
+            with(&|c| c.lk.min_eigen_threshold = f32::NAN),
+        ),
+        ("max_tracks", tracks, with(&|c| c.max_tracks = 0)),
+        ("max_tracks", tracks, with(&|c| c.max_tracks = CAPACITY + 1)),
+        (
+            "refill_below",
+            Bound::AtMost(20),
+            with(&|c| c.refill_below = 21),
         ),
         (
-            TrackerConfig {
-                fb_threshold: -1.0,
-                ..base
-            },
-            TrackerError::BadFbThreshold,
+            "detect_level",
+            Bound::AtMost(7),
+            with(&|c| c.detect_level = 8),
+        ),
+        ("grid.cols", cells, with(&|c| c.grid.cols = 0)),
+        ("grid.cols", cells, with(&|c| c.grid.cols = 33)),
+        ("grid.rows", cells, with(&|c| c.grid.rows = 0)),
+        (
+            "detector.block",
+            Bound::OddRange { min: 3, max: 7 },
+            with(&|c| c.detector = shi_tomasi(4, 0.01)),
         ),
         (
-            TrackerConfig {
-                max_residual: -0.5,
-                ..base
-            },
-            TrackerError::BadMaxResidual,
+            "detector.quality_level",
+            Bound::Range { min: 0, max: 1 },
+            with(&|c| c.detector = shi_tomasi(3, 2.0)),
         ),
         (
-            TrackerConfig {
-                residual_ratio: f32::NAN,
-                ..base
-            },
-            TrackerError::BadMaxResidual,
+            "fb_threshold",
+            Bound::NonNegative,
+            with(&|c| c.fb_threshold = f32::NAN),
         ),
         (
-            TrackerConfig {
-                min_correlation: 1.5,
-                ..base
-            },
-            TrackerError::BadMinCorrelation,
+            "fb_threshold",
+            Bound::NonNegative,
+            with(&|c| c.fb_threshold = -1.0),
         ),
         (
-            TrackerConfig {
-                min_correlation: f32::NAN,
-                ..base
-            },
-            TrackerError::BadMinCorrelation,
+            "max_residual",
+            Bound::NonNegative,
+            with(&|c| c.max_residual = -0.5),
         ),
         (
-            TrackerConfig {
-                max_relocation: -1.0,
-                ..base
-            },
-            TrackerError::BadMaxRelocation,
+            "residual_ratio",
+            Bound::NonNegative,
+            with(&|c| c.residual_ratio = f32::NAN),
         ),
         (
-            TrackerConfig {
-                lk: kestrel::lk::LkParams {
-                    window: 20,
-                    ..base.lk
-                },
-                ..base
-            },
-            TrackerError::Config(kestrel::ConfigError {
-                field: "lk.window",
-                bound: kestrel::Bound::OddRange { min: 3, max: 63 },
-            }),
+            "min_correlation",
+            Bound::AtMost(1),
+            with(&|c| c.min_correlation = 1.5),
         ),
         (
-            TrackerConfig {
-                grid: Grid {
-                    cols: 0,
-                    rows: 4,
-                    per_cell: 2,
-                },
-                ..base
-            },
-            TrackerError::Config(kestrel::ConfigError {
-                field: "grid.cols",
-                bound: kestrel::Bound::Range { min: 1, max: 32 },
-            }),
+            "min_correlation",
+            Bound::AtMost(1),
+            with(&|c| c.min_correlation = f32::NAN),
         ),
         (
-            TrackerConfig {
-                detector: Detector::ShiTomasi(ShiTomasi {
-                    quality_level: 2.0,
-                    ..ShiTomasi::default()
-                }),
-                ..base
-            },
-            TrackerError::Config(kestrel::ConfigError {
-                field: "detector.quality_level",
-                bound: kestrel::Bound::Range { min: 0, max: 1 },
-            }),
+            "max_relocation",
+            Bound::NonNegative,
+            with(&|c| c.max_relocation = -1.0),
+        ),
+        (
+            "fine_search",
+            Bound::NonNegative,
+            with(&|c| c.fine_search = f32::NAN),
+        ),
+        ("fb_every", Bound::AtLeast(1), with(&|c| c.fb_every = 0)),
+        (
+            "fb_doubt",
+            Bound::NonNegative,
+            with(&|c| c.fb_doubt = -0.25),
         ),
     ];
-    let count = cases.len();
-    for (config, expected) in cases {
-        let mut buffers = HostBuffers::new(&small_config(), 64, 48);
-        let made = Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend());
-        assert_eq!(made.unwrap_err(), expected, "{config:?}");
+    let camera = CameraParams::from_horizontal_fov(64, 48, 1.0);
+    for (field, bound, config) in &refused {
+        let expected = ConfigError {
+            field,
+            bound: *bound,
+        };
+        let mut buffers = HostBuffers::new(config, 64, 48);
+        let made = Tracker::<CAPACITY>::new(*config, 64, 48, buffers.lend());
+        assert_eq!(made.err(), Some(expected), "{config:?}");
+        // The same setting in a flow sensor's configuration.
+        let sensor = FlowSensorConfig {
+            tracker: *config,
+            ..FlowSensorConfig::new(camera)
+        };
+        let made = FlowSensor::<CAPACITY>::new(sensor, 64, 48, buffers.lend());
+        let named = made.err().map(|e| (e.field.to_owned(), e.bound));
+        assert_eq!(
+            named,
+            Some((format!("tracker.{field}"), *bound)),
+            "{config:?}"
+        );
     }
-    for (width, height) in [(0, 48), (64, 0), (5000, 48)] {
+    // Every field a refusal names, and the fields no bound constrains, accepted at their
+    // edges: 0 and infinity for the gates (infinity turns one off), -infinity to 1 for the
+    // correlation, the largest values of the counts and distances.
+    let accepted = [
+        with(&|c| c.lk.window = 3),
+        with(&|c| c.lk.window = 63),
+        with(&|c| c.lk.max_level = 7),
+        with(&|c| c.lk.max_iterations = u32::MAX),
+        with(&|c| c.lk.epsilon = 0.0),
+        with(&|c| c.lk.min_eigen_threshold = 0.0),
+        with(&|c| (c.max_tracks, c.refill_below) = (1, 0)),
+        with(&|c| (c.max_tracks, c.refill_below) = (CAPACITY, CAPACITY)),
+        with(&|c| c.detect_level = 7),
+        with(&|c| {
+            c.detector = Detector::Fast(Fast {
+                threshold: u8::MAX,
+                nonmax: false,
+            })
+        }),
+        with(&|c| c.detector = shi_tomasi(7, 0.0)),
+        with(&|c| c.detector = shi_tomasi(3, 1.0)),
+        with(&|c| {
+            c.grid = Grid {
+                cols: 32,
+                rows: 32,
+                per_cell: 0,
+            }
+        }),
+        with(&|c| (c.border, c.min_distance) = (u16::MAX, u16::MAX)),
+        with(&|c| {
+            (c.fb_threshold, c.max_residual, c.residual_ratio) = (0.0, 0.0, 0.0);
+            (c.max_relocation, c.fine_search, c.fb_doubt) = (0.0, 0.0, 0.0);
+        }),
+        with(&|c| {
+            (c.fb_threshold, c.max_residual, c.residual_ratio) =
+                (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+            (c.max_relocation, c.fine_search, c.fb_doubt) =
+                (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+        }),
+        with(&|c| c.min_correlation = 1.0),
+        with(&|c| c.min_correlation = f32::NEG_INFINITY),
+        with(&|c| (c.relocate_every, c.relocate_from_age) = (0, 0)),
+        with(&|c| (c.relocate_every, c.relocate_from_age) = (u32::MAX, u32::MAX)),
+        with(&|c| c.constant_velocity = false),
+        with(&|c| c.fb_every = u32::MAX),
+        with(&|c| c.pyramid = PyramidFilter::Box),
+    ];
+    for config in &accepted {
+        let mut buffers = HostBuffers::new(config, 64, 48);
+        let made = Tracker::<CAPACITY>::new(*config, 64, 48, buffers.lend());
+        assert!(made.is_ok(), "{config:?}: {:?}", made.err());
+    }
+    // The frame's sides.
+    let sides = Bound::Range { min: 1, max: 4096 };
+    for (width, height, field) in [(0, 48, "width"), (64, 0, "height"), (5000, 48, "width")] {
         let mut buffers = HostBuffers::new(&base, 64, 48);
         let made = Tracker::<CAPACITY>::new(base, width, height, buffers.lend());
-        assert_eq!(made.unwrap_err(), TrackerError::BadFrameSize);
+        assert_eq!(
+            made.err(),
+            Some(ConfigError {
+                field,
+                bound: sides
+            })
+        );
     }
-    eprintln!("{count} settings and 3 frame sizes refused, each with its own error");
+    let messages: Vec<String> = refused
+        .iter()
+        .map(|(field, bound, _)| {
+            ConfigError {
+                field,
+                bound: *bound,
+            }
+            .to_string()
+        })
+        .collect();
+    eprintln!(
+        "{} settings refused by name, {} accepted at their edges, 3 frame sizes refused:\n{}",
+        refused.len(),
+        accepted.len(),
+        messages.join("\n")
+    );
 }
 
 #[test]
-fn short_buffers_are_refused_when_the_tracker_is_made() {
+fn short_buffers_are_refused_by_name_when_the_tracker_is_made() {
     use kestrel::detect::Fast;
-    use kestrel::track::Detector;
+    use kestrel::lk::scratch_len;
+    use kestrel::track::{detect_scratch_len, tracker_storage_len, Detector};
+    use kestrel::{Bound, ConfigError};
 
     let config = small_config();
     let refused = |shorten: fn(&mut HostBuffers), config: TrackerConfig| {
@@ -694,24 +819,30 @@ fn short_buffers_are_refused_when_the_tracker_is_made() {
         shorten(&mut buffers);
         Tracker::<CAPACITY>::new(config, 64, 48, buffers.lend()).err()
     };
+    let short = |field, len| {
+        Some(ConfigError {
+            field,
+            bound: Bound::MinLen(len),
+        })
+    };
     assert_eq!(
         refused(|b| b.storage.truncate(b.storage.len() - 1), config),
-        Some(TrackerError::StorageTooSmall)
+        short("buffers.storage", tracker_storage_len(64, 48, 3))
     );
     assert_eq!(
         refused(|b| b.lk_scratch.truncate(b.lk_scratch.len() - 1), config),
-        Some(TrackerError::LkScratchTooSmall)
+        short("buffers.lk_scratch", scratch_len(21))
     );
     assert_eq!(
         refused(
             |b| b.detect_scratch.truncate(b.detect_scratch.len() - 1),
             config
         ),
-        Some(TrackerError::DetectScratchTooSmall)
+        short("buffers.detect_scratch", detect_scratch_len(64, 1, 60))
     );
     assert_eq!(
         refused(|b| b.candidates.truncate(19), config),
-        Some(TrackerError::CandidatesTooSmall)
+        short("buffers.candidates", 20)
     );
     // FAST needs no detector scratch.
     let fast = TrackerConfig {

@@ -41,9 +41,9 @@ impl Ego {
             model,
             ..RansacParams::default()
         };
-        let ransac = Ransac::new(params).map_err(FrameError::Ego)?;
+        let ransac = Ransac::new(params).map_err(FrameError::Config)?;
         let params = CameraParams::from_horizontal_fov(WIDTH as u16, HEIGHT as u16, fov_radians());
-        let camera = Camera::new(params).map_err(FrameError::Camera)?;
+        let camera = Camera::new(params).map_err(FrameError::Config)?;
         Ok(Self {
             ransac,
             camera,

@@ -8,7 +8,7 @@
 use kestrel::dense::{DenseError, DenseSummary, MotionSummary, ObjectsStage};
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
-use kestrel::ego::{CameraError, EgoMotion, ModelKind, OpticalFlowRad, RansacError};
+use kestrel::ego::{EgoMotion, ModelKind, OpticalFlowRad, RansacError};
 use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{scratch_len, LkParams, TemplatePlacement};
 use kestrel::pyramid::Pyramid;
@@ -115,7 +115,6 @@ pub enum FrameError {
     Config(ConfigError),
     Image(ImageError),
     Track(TrackerError),
-    Camera(CameraError),
     Ego(RansacError),
     Mavlink(EncodeError),
     Dense(DenseError),
@@ -162,7 +161,7 @@ impl Pipeline {
     ) -> Result<Self, FrameError> {
         let buffers = tracker.buffers();
         let tracker =
-            Tracker::new(tracker_config(), WIDTH, HEIGHT, buffers).map_err(FrameError::Track)?;
+            Tracker::new(tracker_config(), WIDTH, HEIGHT, buffers).map_err(FrameError::Config)?;
         Ok(Self {
             tracker,
             previous: None,

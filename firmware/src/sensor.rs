@@ -20,6 +20,7 @@ use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError, SensorStage};
 use kestrel::track::{tracker_storage_len, TrackerConfig};
+use kestrel::ConfigError;
 
 use crate::bad_input;
 use crate::camera;
@@ -59,7 +60,7 @@ struct Sensor<'m> {
 }
 
 impl<'m> Sensor<'m> {
-    fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, FlowSensorError> {
+    fn new(memory: &'static mut SensorMemory, meter: &'m Meter) -> Result<Self, ConfigError> {
         let camera = CameraParams::from_horizontal_fov(WIDTH as u16, HEIGHT as u16, fov_radians());
         let config = FlowSensorConfig::new(camera);
         Ok(Self {
@@ -135,7 +136,6 @@ fn frame_error(e: FlowSensorError) -> FrameError {
     match e {
         FlowSensorError::Tracker(e) => FrameError::Track(e),
         FlowSensorError::Ransac(e) => FrameError::Ego(e),
-        FlowSensorError::Camera(e) => FrameError::Camera(e),
     }
 }
 
@@ -168,7 +168,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
     let mut sensor = match Sensor::new(memory, meter) {
         Ok(s) => s,
         Err(e) => {
-            hprintln!("error sensor preset refused: {:?}", e);
+            hprintln!("error sensor preset refused: {}", e);
             return false;
         }
     };

@@ -12,8 +12,9 @@ use crate::pyramid::Pyramid;
 use crate::q16::Point;
 use crate::{Bound, ConfigError};
 
-/// The settings [`MovingObjects::new`] checks, as paths from its [`MovingObjectsConfig`].
-const CONFIG_PATHS: [&str; 13] = [
+/// The settings [`MovingObjects::new`] checks, as paths from its [`MovingObjectsConfig`], one
+/// list per part.
+const GRID_PATHS: [&str; 8] = [
     "grid.cell",
     "grid.max_residual",
     "grid.camera_tolerance",
@@ -22,12 +23,10 @@ const CONFIG_PATHS: [&str; 13] = [
     "grid.lk.max_iterations",
     "grid.lk.epsilon",
     "grid.lk.min_eigen_threshold",
-    "fit.start_radius",
-    "fit.inlier_radius",
-    "motion.threshold",
-    "outline.side",
-    "outline.reach",
 ];
+const FIT_PATHS: [&str; 2] = ["fit.start_radius", "fit.inlier_radius"];
+const MOTION_PATHS: [&str; 1] = ["motion.threshold"];
+const OUTLINE_PATHS: [&str; 2] = ["outline.side", "outline.reach"];
 
 /// How a [`MovingObjects`] is made.
 ///
@@ -319,10 +318,10 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
         width: usize,
         height: usize,
     ) -> Result<Self, ConfigError> {
-        let nested = |e: ConfigError| e.nested(&CONFIG_PATHS);
-        let flow = DenseFlow::new(config.grid).map_err(nested)?;
-        let layout = flow.layout(width, height).map_err(nested)?;
-        let detector = MotionDetector::new(config.motion).map_err(nested)?;
+        let grid = |e: ConfigError| e.nested(&GRID_PATHS);
+        let flow = DenseFlow::new(config.grid).map_err(grid)?;
+        let layout = flow.layout(width, height).map_err(grid)?;
+        let detector = MotionDetector::new(config.motion).map_err(|e| e.nested(&MOTION_PATHS))?;
         if !OUTLINE && config.outline.is_some() {
             return Err(ConfigError::new("outline", Bound::Absent));
         }
@@ -330,8 +329,8 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
             .outline
             .map(Outliner::new)
             .transpose()
-            .map_err(nested)?;
-        config.fit.check().map_err(nested)?;
+            .map_err(|e| e.nested(&OUTLINE_PATHS))?;
+        config.fit.check().map_err(|e| e.nested(&FIT_PATHS))?;
         Ok(Self {
             config,
             layout,

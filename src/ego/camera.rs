@@ -3,6 +3,7 @@
 use super::model::{to_point, Homography, MAX_COORDINATE};
 use super::rotation::Rotation;
 use crate::q16::Point;
+use crate::{Bound, ConfigError};
 
 /// The focal length range accepted, pixels.
 ///
@@ -16,9 +17,10 @@ pub const FOCAL_RANGE: core::ops::RangeInclusive<f32> = 1.0..=100_000.0;
 ///
 /// ```
 /// use kestrel::ego::MAX_DISTORTION;
-/// use kestrel::ego::{Camera, CameraError, CameraParams};
+/// use kestrel::ego::{Camera, CameraParams};
+/// use kestrel::{Bound, ConfigError};
 /// let p = CameraParams { k2: -2.0 * MAX_DISTORTION, ..CameraParams::from_horizontal_fov(64, 48, 1.0) };
-/// assert_eq!(Camera::new(p).unwrap_err(), CameraError::BadDistortion);
+/// assert_eq!(Camera::new(p).unwrap_err(), ConfigError { field: "k2", bound: Bound::Within(10) });
 /// ```
 pub const MAX_DISTORTION: f32 = 10.0;
 
@@ -80,22 +82,29 @@ impl CameraParams {
     }
 }
 
-/// Why camera parameters were rejected, or a call could not run.
+/// [`FOCAL_RANGE`], [`MAX_COORDINATE`] and [`MAX_DISTORTION`] as the bounds a refusal names
+/// (checked against them in the tests).
+const FOCAL_BOUND: Bound = Bound::Range {
+    min: 1,
+    max: 100_000,
+};
+const PRINCIPAL_BOUND: Bound = Bound::Within(65_536);
+const DISTORTION_BOUND: Bound = Bound::Within(10);
+
+/// Why a camera call could not run (refused parameters are [`Camera::new`]'s
+/// [`ConfigError`]).
 ///
 /// ```
-/// use kestrel::ego::{Camera, CameraError, CameraParams};
-/// let p = CameraParams { focal_x: 0.0, ..CameraParams::from_horizontal_fov(64, 64, 1.0) };
-/// assert_eq!(Camera::new(p).unwrap_err(), CameraError::BadFocalLength);
+/// use kestrel::ego::{Camera, CameraError, CameraParams, Rotation};
+/// use kestrel::Point;
+/// let camera = Camera::new(CameraParams::from_horizontal_fov(64, 64, 1.0)).unwrap();
+/// let r = Rotation::from_vector([0.0, 0.0, 0.01]).unwrap();
+/// let refused = camera.predict_points(&r, &[Point::default(); 2], &mut [Point::default(); 1]);
+/// assert_eq!(refused, Err(CameraError::LengthMismatch));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CameraError {
-    /// A focal length is NaN or outside [`FOCAL_RANGE`] (zero and negative included).
-    BadFocalLength,
-    /// The principal point is not finite or beyond [`MAX_COORDINATE`].
-    BadPrincipalPoint,
-    /// A distortion coefficient is not finite or beyond [`MAX_DISTORTION`].
-    BadDistortion,
     /// Point and output slices differ in length.
     LengthMismatch,
 }
@@ -103,9 +112,6 @@ pub enum CameraError {
 impl core::fmt::Display for CameraError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            CameraError::BadFocalLength => "focal length must be between 1 and 100000 px",
-            CameraError::BadPrincipalPoint => "principal point must be finite and in range",
-            CameraError::BadDistortion => "distortion coefficients must be finite, |k| <= 10",
             CameraError::LengthMismatch => "points and outputs differ in length",
         })
     }
@@ -145,25 +151,42 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// Validates `params`.
+    /// Validates `params`: focal lengths within [`FOCAL_RANGE`], a principal point within
+    /// [`MAX_COORDINATE`] and distortion coefficients within [`MAX_DISTORTION`] of 0, NaN
+    /// refused; a refusal names the field (`"focal_x"`, `"principal_y"`, `"k1"`, ...).
     ///
     /// ```
-    /// use kestrel::ego::{Camera, CameraError, CameraParams};
+    /// use kestrel::ego::{Camera, CameraParams};
+    /// use kestrel::{Bound, ConfigError};
     /// let good = CameraParams::from_horizontal_fov(160, 120, 1.0);
     /// assert!(Camera::new(good).is_ok());
     /// let nan = CameraParams { k1: f32::NAN, ..good };
-    /// assert_eq!(Camera::new(nan).unwrap_err(), CameraError::BadDistortion);
+    /// assert_eq!(Camera::new(nan).unwrap_err(), ConfigError { field: "k1", bound: Bound::Within(10) });
+    /// let flat = CameraParams { focal_y: 0.0, ..good };
+    /// assert_eq!(Camera::new(flat).unwrap_err().to_string(), "focal_y must be 1 to 100000");
     /// ```
-    pub fn new(params: CameraParams) -> Result<Self, CameraError> {
-        if !FOCAL_RANGE.contains(&params.focal_x) || !FOCAL_RANGE.contains(&params.focal_y) {
-            return Err(CameraError::BadFocalLength);
+    pub fn new(params: CameraParams) -> Result<Self, ConfigError> {
+        let focal = [("focal_x", params.focal_x), ("focal_y", params.focal_y)];
+        for (field, focal) in focal {
+            if !FOCAL_RANGE.contains(&focal) {
+                return Err(ConfigError::new(field, FOCAL_BOUND));
+            }
         }
-        let in_range = |v: f32| v.abs() <= MAX_COORDINATE;
-        if !in_range(params.principal_x) || !in_range(params.principal_y) {
-            return Err(CameraError::BadPrincipalPoint);
+        let principal = [
+            ("principal_x", params.principal_x),
+            ("principal_y", params.principal_y),
+        ];
+        // NaN is within no limit.
+        let within = |v: f32, limit: f32| v.abs() <= limit;
+        for (field, v) in principal {
+            if !within(v, MAX_COORDINATE) {
+                return Err(ConfigError::new(field, PRINCIPAL_BOUND));
+            }
         }
-        if !(params.k1.abs() <= MAX_DISTORTION && params.k2.abs() <= MAX_DISTORTION) {
-            return Err(CameraError::BadDistortion);
+        for (field, k) in [("k1", params.k1), ("k2", params.k2)] {
+            if !within(k, MAX_DISTORTION) {
+                return Err(ConfigError::new(field, DISTORTION_BOUND));
+            }
         }
         Ok(Self { params })
     }
@@ -414,6 +437,28 @@ mod tests {
     fn camera(k1: f32, k2: f32) -> Camera {
         let p = CameraParams::from_horizontal_fov(320, 240, 1.2);
         Camera::new(CameraParams { k1, k2, ..p }).unwrap()
+    }
+
+    #[test]
+    fn refusals_name_the_limits_the_checks_use() {
+        assert_eq!(
+            FOCAL_BOUND,
+            Bound::Range {
+                min: *FOCAL_RANGE.start() as u32,
+                max: *FOCAL_RANGE.end() as u32
+            }
+        );
+        assert_eq!(PRINCIPAL_BOUND, Bound::Within(MAX_COORDINATE as u32));
+        assert_eq!(DISTORTION_BOUND, Bound::Within(MAX_DISTORTION as u32));
+        let good = CameraParams::from_horizontal_fov(64, 48, 1.0);
+        let far = CameraParams {
+            principal_y: f32::INFINITY,
+            ..good
+        };
+        assert_eq!(
+            Camera::new(far).unwrap_err(),
+            ConfigError::new("principal_y", PRINCIPAL_BOUND)
+        );
     }
 
     #[test]

@@ -2,6 +2,7 @@
 
 use super::linalg::sqrt;
 use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair};
+use crate::{Bound, ConfigError};
 
 /// The generator seed used unless the parameters say otherwise: the seed decides which
 /// samples are drawn.
@@ -196,22 +197,18 @@ impl Default for RansacParams {
     }
 }
 
-/// Why estimation could not run at all (problems with the data are an [`EgoStatus`] instead).
+/// Why an estimation could not run at all (problems with the data are an [`EgoStatus`]
+/// instead; refused parameters are [`Ransac::new`]'s [`ConfigError`]).
 ///
 /// ```
 /// use kestrel::ego::{Ransac, RansacError, RansacParams};
-/// let bad = RansacParams { threshold: -1.0, ..Default::default() };
-/// assert_eq!(Ransac::new(bad).unwrap_err(), RansacError::BadThreshold);
+/// let ransac = Ransac::new(RansacParams::default()).unwrap();
+/// let tracks = [((1.0, 1.0), (2.0, 2.0)); 3];
+/// assert_eq!(ransac.estimate(&tracks, &mut [false; 2]).unwrap_err(), RansacError::LengthMismatch);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RansacError {
-    /// The threshold is not a finite number in `(0, 1000]`.
-    BadThreshold,
-    /// `max_iterations` is zero.
-    ZeroIterations,
-    /// The confidence is not in `(0, 1)`.
-    BadConfidence,
     /// The inlier flags do not have one entry per track.
     LengthMismatch,
     /// More than 65535 tracks.
@@ -221,9 +218,6 @@ pub enum RansacError {
 impl core::fmt::Display for RansacError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            RansacError::BadThreshold => "threshold must be a finite number in (0, 1000] px",
-            RansacError::ZeroIterations => "max iterations must be at least 1",
-            RansacError::BadConfidence => "confidence must be in (0, 1)",
             RansacError::LengthMismatch => "inlier flags and tracks differ in length",
             RansacError::TooManyTracks => "at most 65535 tracks",
         })
@@ -232,6 +226,8 @@ impl core::fmt::Display for RansacError {
 
 /// The largest inlier threshold accepted, pixels.
 const MAX_THRESHOLD: f32 = 1000.0;
+/// [`MAX_THRESHOLD`] as the bound a refusal names.
+const THRESHOLD_BOUND: Bound = Bound::PositiveAtMost(1000);
 
 /// Deterministic, bounded-time robust estimation of the dominant motion (RANSAC).
 ///
@@ -287,25 +283,32 @@ pub struct Ransac {
 }
 
 impl Ransac {
-    /// Validates `params`.
+    /// Validates `params`; a refusal names `"threshold"`, `"max_iterations"` or
+    /// `"confidence"`.
     ///
     /// ```
-    /// use kestrel::ego::{Ransac, RansacError, RansacParams};
+    /// use kestrel::ego::{Ransac, RansacParams};
+    /// use kestrel::{Bound, ConfigError};
     /// assert!(Ransac::new(RansacParams::default()).is_ok());
     /// let p = RansacParams { confidence: 1.0, ..Default::default() };
-    /// assert_eq!(Ransac::new(p).unwrap_err(), RansacError::BadConfidence);
+    /// let refused = Ransac::new(p).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "confidence", bound: Bound::Fraction });
+    /// assert_eq!(refused.to_string(), "confidence must be a number above 0 and below 1");
+    /// let bad = RansacParams { threshold: -1.0, ..Default::default() };
+    /// let refused = Ransac::new(bad).unwrap_err();
+    /// assert_eq!(refused.to_string(), "threshold must be a number above 0 and at most 1000");
     /// ```
-    pub fn new(params: RansacParams) -> Result<Self, RansacError> {
+    pub fn new(params: RansacParams) -> Result<Self, ConfigError> {
         let t = params.threshold;
         if !(t > 0.0 && t <= MAX_THRESHOLD) {
-            return Err(RansacError::BadThreshold);
+            return Err(ConfigError::new("threshold", THRESHOLD_BOUND));
         }
         if params.max_iterations == 0 {
-            return Err(RansacError::ZeroIterations);
+            return Err(ConfigError::new("max_iterations", Bound::AtLeast(1)));
         }
         let c = params.confidence;
         if !(c > 0.0 && c < 1.0) {
-            return Err(RansacError::BadConfidence);
+            return Err(ConfigError::new("confidence", Bound::Fraction));
         }
         Ok(Self {
             params,
@@ -640,6 +643,19 @@ impl SplitMix64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_threshold_refusal_names_the_limit_the_check_uses() {
+        assert_eq!(THRESHOLD_BOUND, Bound::PositiveAtMost(MAX_THRESHOLD as u32));
+        let params = RansacParams {
+            max_iterations: 0,
+            ..RansacParams::default()
+        };
+        assert_eq!(
+            Ransac::new(params).unwrap_err(),
+            ConfigError::new("max_iterations", Bound::AtLeast(1))
+        );
+    }
 
     #[test]
     fn samples_are_distinct_and_in_range() {

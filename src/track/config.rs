@@ -1,18 +1,19 @@
 //! Tracker settings, their defaults and their validation.
 
-use super::TrackerError;
+use crate::config_error::bound_number;
 use crate::detect::{Fast, Grid, ShiTomasi};
 use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement, LK_PATHS};
 use crate::pyramid::{PyramidFilter, MAX_LEVEL};
 use crate::q16::Q16;
-use crate::ConfigError;
+use crate::{Bound, ConfigError};
 
 /// The corner detector that starts new tracks.
 ///
 /// ```
 /// use kestrel::detect::{Corner, Fast};
 /// use kestrel::lk::scratch_len;
-/// use kestrel::track::{tracker_storage_len, Detector, Tracker, TrackerBuffers, TrackerConfig, TrackerError};
+/// use kestrel::track::{detect_scratch_len, tracker_storage_len, Detector, Tracker, TrackerBuffers, TrackerConfig};
+/// use kestrel::{Bound, ConfigError};
 /// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };
 /// let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
 /// let mut lk_scratch = [0i16; scratch_len(21)];
@@ -27,7 +28,8 @@ use crate::ConfigError;
 ///     Tracker::<4>::new(TrackerConfig { detector, ..config }, 32, 32, buffers).map(|_| ())
 /// };
 /// // Shi-Tomasi, the default, needs detection scratch; FAST needs none.
-/// assert_eq!(make(Detector::default()), Err(TrackerError::DetectScratchTooSmall));
+/// let needed = Bound::MinLen(detect_scratch_len(32, 1, 4));
+/// assert_eq!(make(Detector::default()), Err(ConfigError { field: "buffers.detect_scratch", bound: needed }));
 /// assert_eq!(make(Detector::Fast(Fast::default())), Ok(()));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,8 +63,9 @@ impl Default for Detector {
 /// use kestrel::frame::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::track::{
-///     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig, TrackerError,
+///     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig,
 /// };
+/// use kestrel::{Bound, ConfigError};
 ///
 /// const W: usize = 160;
 /// const H: usize = 120;
@@ -79,7 +82,8 @@ impl Default for Detector {
 /// };
 /// // A tracker of fewer tracks than the settings want refuses them at once.
 /// let small = Tracker::<50>::new(config, W, H, buffers);
-/// assert_eq!(small.unwrap_err(), TrackerError::BadMaxTracks);
+/// let fewer = ConfigError { field: "max_tracks", bound: Bound::Range { min: 1, max: 50 } };
+/// assert_eq!(small.unwrap_err(), fewer);
 /// let buffers = TrackerBuffers {
 ///     storage: &mut storage,
 ///     lk_scratch: &mut lk_scratch,
@@ -309,35 +313,45 @@ impl TrackerConfig {
         }
     }
 
-    /// Checks every setting for a tracker of capacity `capacity`.
-    pub(super) fn validate(&self, capacity: usize) -> Result<Checked, TrackerError> {
-        let lk_refused = |e: ConfigError| TrackerError::Config(e.nested(&LK_PATHS));
+    /// Checks every setting for a tracker of capacity `capacity`; a refusal names the field
+    /// as the caller writes it (`"max_tracks"`, `"lk.window"`, `"grid.cols"`).
+    pub(super) fn validate(&self, capacity: usize) -> Result<Checked, ConfigError> {
+        let lk_refused = |e: ConfigError| e.nested(&LK_PATHS);
         let lk = LucasKanade::new(self.lk).map_err(lk_refused)?;
         if self.max_tracks == 0 || self.max_tracks > capacity {
-            return Err(TrackerError::BadMaxTracks);
+            let bound = Bound::Range {
+                min: 1,
+                max: bound_number(capacity),
+            };
+            return Err(ConfigError::new("max_tracks", bound));
         }
         if self.refill_below > self.max_tracks {
-            return Err(TrackerError::BadRefillThreshold);
+            let bound = Bound::AtMost(bound_number(self.max_tracks));
+            return Err(ConfigError::new("refill_below", bound));
         }
         if self.detect_level > MAX_LEVEL {
-            return Err(TrackerError::BadDetectLevel);
+            let bound = Bound::AtMost(bound_number(MAX_LEVEL));
+            return Err(ConfigError::new("detect_level", bound));
         }
-        let nested = |paths| move |e: ConfigError| TrackerError::Config(e.nested(paths));
         self.grid
             .validate()
-            .map_err(nested(&["grid.cols", "grid.rows"]))?;
+            .map_err(|e| e.nested(&["grid.cols", "grid.rows"]))?;
         if let Detector::ShiTomasi(shi_tomasi) = &self.detector {
             shi_tomasi
                 .validate()
-                .map_err(nested(&["detector.block", "detector.quality_level"]))?;
+                .map_err(|e| e.nested(&["detector.block", "detector.quality_level"]))?;
         }
+        // The gates: a number >= 0, infinity turning the gate off.
+        let refused = |field| ConfigError::new(field, Bound::NonNegative);
         let fb_limit_sq = gate(self.fb_threshold)
-            .ok_or(TrackerError::BadFbThreshold)?
+            .ok_or(refused("fb_threshold"))?
             .map(squared_bits);
-        let max_residual = gate(self.max_residual).ok_or(TrackerError::BadMaxResidual)?;
-        let residual_ratio = gate(self.residual_ratio).ok_or(TrackerError::BadMaxResidual)?;
+        let max_residual = gate(self.max_residual).ok_or(refused("max_residual"))?;
+        let residual_ratio = gate(self.residual_ratio).ok_or(refused("residual_ratio"))?;
         let min_correlation = match self.min_correlation {
-            c if c.is_nan() || c > 1.0 => return Err(TrackerError::BadMinCorrelation),
+            c if c.is_nan() || c > 1.0 => {
+                return Err(ConfigError::new("min_correlation", Bound::AtMost(1)))
+            }
             c if c <= -1.0 => None,
             c => Some(c),
         };
@@ -349,18 +363,18 @@ impl TrackerConfig {
         })
         .map_err(lk_refused)?;
         let max_shift_sq = gate(self.max_relocation)
-            .ok_or(TrackerError::BadMaxRelocation)?
+            .ok_or(refused("max_relocation"))?
             .map_or(i64::MAX, squared_bits);
-        let fine_search = match gate(self.fine_search).ok_or(TrackerError::BadFineSearch)? {
+        let fine_search = match gate(self.fine_search).ok_or(refused("fine_search"))? {
             Some(reach) if reach == Q16::ZERO => None,
             Some(reach) => Some(reach),
             None => Some(Q16::MAX),
         };
         if self.fb_every == 0 {
-            return Err(TrackerError::BadFbSchedule);
+            return Err(ConfigError::new("fb_every", Bound::AtLeast(1)));
         }
         let fb_doubt_sq = gate(self.fb_doubt)
-            .ok_or(TrackerError::BadFbThreshold)?
+            .ok_or(refused("fb_doubt"))?
             .map_or(i64::MAX, squared_bits);
         let relocate = (self.relocate_every > 0).then_some(Relocate {
             every: self.relocate_every,
@@ -483,7 +497,7 @@ mod tests {
         };
         assert_eq!(
             nan.validate(100).unwrap_err(),
-            TrackerError::BadMaxRelocation
+            ConfigError::new("max_relocation", Bound::NonNegative)
         );
     }
 }

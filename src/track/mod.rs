@@ -84,11 +84,12 @@ mod turn;
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
 pub use config::{Detector, TrackerConfig, BIRTH_MIN_EIGEN};
 
+use crate::config_error::bound_number;
 use crate::frame::{ImageView, MAX_DIMENSION};
 use crate::lk::{scratch_len, LkError};
 use crate::pyramid::{pyramid_storage_len, Pyramid};
 use crate::q16::{Point, Q16};
-use crate::ConfigError;
+use crate::{Bound, ConfigError};
 use anchor::Anchor;
 use buffers::StorageParts;
 use config::Checked;
@@ -215,46 +216,41 @@ impl FrameReport {
     }
 }
 
-/// Why a tracker could not be made, or could not process a frame.
+/// Why a tracker could not take a frame (a tracker that could not be made is a
+/// [`ConfigError`] of [`Tracker::new`]).
+///
+/// ```
+/// use kestrel::frame::ImageView;
+/// use kestrel::track::{Tracker, TrackerConfig, TrackerError};
+/// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
+/// # use kestrel::{detect::Corner, lk::scratch_len};
+/// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
+/// # let mut lk_scratch = [0i16; scratch_len(21)];
+/// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
+/// # let mut candidates = [Corner::default(); 4];
+/// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+/// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
+/// let (small, large) = ([0u8; 16 * 16], [0u8; 32 * 32]);
+/// let (small, frame) = (ImageView::packed(&small, 16, 16).unwrap(), ImageView::packed(&large, 32, 32).unwrap());
+/// assert_eq!(tracker.process(frame, frame, None), Err(TrackerError::NotStarted));
+/// let refused = tracker.start(small).unwrap_err();
+/// assert_eq!(refused, TrackerError::FrameSizeMismatch);
+/// assert_eq!(refused.to_string(), "frame size differs from the tracker's frame size");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TrackerError {
-    /// A setting or buffer was refused.
-    Config(ConfigError),
-    /// `max_tracks` is 0 or larger than the tracker's capacity `N`.
-    BadMaxTracks,
-    /// `refill_below` is larger than `max_tracks`.
-    BadRefillThreshold,
-    /// `detect_level` is larger than [`crate::pyramid::MAX_LEVEL`].
-    BadDetectLevel,
-    /// `fb_threshold` is NaN or negative.
-    BadFbThreshold,
-    /// `max_residual` or `residual_ratio` is NaN or negative.
-    BadMaxResidual,
-    /// `min_correlation` is NaN or above 1.
-    BadMinCorrelation,
-    /// `max_relocation` is NaN or negative.
-    BadMaxRelocation,
-    /// `fine_search` is NaN or negative.
-    BadFineSearch,
-    /// `fb_every` is 0.
-    BadFbSchedule,
-    /// The frame size is zero or larger than [`MAX_DIMENSION`].
-    BadFrameSize,
-    /// [`TrackerBuffers::storage`] is shorter than [`tracker_storage_len`].
-    StorageTooSmall,
-    /// [`TrackerBuffers::lk_scratch`] is shorter than [`crate::lk::scratch_len`].
-    LkScratchTooSmall,
-    /// [`TrackerBuffers::detect_scratch`] is shorter than [`detect_scratch_len`] (Shi-Tomasi).
-    DetectScratchTooSmall,
-    /// [`TrackerBuffers::candidates`] holds fewer than `max_tracks` corners.
-    CandidatesTooSmall,
     /// A frame is not the size the tracker was made for.
     FrameSizeMismatch,
     /// [`Tracker::process`] was called before [`Tracker::start`].
     NotStarted,
     /// The previous frame given is not the frame given last: its size or pixels differ.
     NotThePreviousFrame,
+    /// A buffer refused while taking a frame: never expected, since [`Tracker::new`] checked
+    /// every buffer against the settings.
+    Config(ConfigError),
 }
 
 impl From<ConfigError> for TrackerError {
@@ -266,37 +262,6 @@ impl From<ConfigError> for TrackerError {
 impl core::fmt::Display for TrackerError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            TrackerError::Config(e) => e.fmt(f),
-            TrackerError::BadMaxTracks => f.write_str("max tracks must be 1 to the capacity"),
-            TrackerError::BadRefillThreshold => {
-                f.write_str("refill threshold must be at most max tracks")
-            }
-            TrackerError::BadDetectLevel => f.write_str("detection level must be at most 7"),
-            TrackerError::BadFbThreshold => {
-                f.write_str("forward-backward threshold must be a number >= 0")
-            }
-            TrackerError::BadMaxResidual => {
-                f.write_str("max residual and residual ratio must be numbers >= 0")
-            }
-            TrackerError::BadMinCorrelation => f.write_str("min correlation must be a number <= 1"),
-            TrackerError::BadMaxRelocation => f.write_str("max relocation must be a number >= 0"),
-            TrackerError::BadFineSearch => f.write_str("fine search reach must be a number >= 0"),
-            TrackerError::BadFbSchedule => {
-                f.write_str("forward-backward schedule must be at least 1 frame")
-            }
-            TrackerError::BadFrameSize => f.write_str("frame size must be 1 to 4096 px per side"),
-            TrackerError::StorageTooSmall => {
-                f.write_str("tracker storage is smaller than tracker_storage_len")
-            }
-            TrackerError::LkScratchTooSmall => {
-                f.write_str("LK scratch is smaller than scratch_len(window)")
-            }
-            TrackerError::DetectScratchTooSmall => {
-                f.write_str("detector scratch is smaller than detect_scratch_len")
-            }
-            TrackerError::CandidatesTooSmall => {
-                f.write_str("candidate buffer holds fewer corners than max tracks")
-            }
             TrackerError::FrameSizeMismatch => {
                 f.write_str("frame size differs from the tracker's frame size")
             }
@@ -304,6 +269,7 @@ impl core::fmt::Display for TrackerError {
             TrackerError::NotThePreviousFrame => {
                 f.write_str("previous frame is not the frame given last")
             }
+            TrackerError::Config(e) => e.fmt(f),
         }
     }
 }
@@ -371,8 +337,15 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// A tracker for `width` x `height` frames, once `config` and the sizes of `buffers` are
     /// checked: all the validation happens here, so that firmware finds a mistake at start-up.
     ///
+    /// A refusal names the setting as the caller writes it: a field of `config`
+    /// (`"max_tracks"`, `"fb_threshold"`; a nested one by its path, `"lk.window"`,
+    /// `"grid.cols"`, `"detector.quality_level"`), `"width"` or `"height"` (1 to
+    /// [`MAX_DIMENSION`]), or a buffer (`"buffers.storage"`, `"buffers.lk_scratch"`,
+    /// `"buffers.detect_scratch"`, `"buffers.candidates"`) with the length it needs.
+    ///
     /// ```
-    /// use kestrel::track::{Tracker, TrackerBuffers, TrackerConfig, TrackerError};
+    /// use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
+    /// use kestrel::{Bound, ConfigError};
     /// let buffers = || TrackerBuffers {
     ///     storage: &mut [],
     ///     lk_scratch: &mut [],
@@ -380,22 +353,42 @@ impl<'a, const N: usize> Tracker<'a, N> {
     ///     candidates: &mut [],
     /// };
     /// let config = TrackerConfig::default();
+    /// // No tracks at all.
+    /// let none = TrackerConfig { max_tracks: 0, ..config };
+    /// let refused = Tracker::<4>::new(none, 160, 120, buffers()).unwrap_err();
+    /// assert_eq!(refused, ConfigError { field: "max_tracks", bound: Bound::Range { min: 1, max: 4 } });
+    /// assert_eq!(refused.to_string(), "max_tracks must be 1 to 4");
     /// // The default wants 100 tracks; this tracker holds 50.
-    /// let small = Tracker::<50>::new(config, 160, 120, buffers());
-    /// assert_eq!(small.unwrap_err(), TrackerError::BadMaxTracks);
-    /// let empty = Tracker::<100>::new(config, 160, 120, buffers());
-    /// assert_eq!(empty.unwrap_err(), TrackerError::StorageTooSmall);
+    /// let small = Tracker::<50>::new(config, 160, 120, buffers()).unwrap_err();
+    /// assert_eq!(small.to_string(), "max_tracks must be 1 to 50");
+    /// // Nested settings are named by their path.
+    /// let mut even = config;
+    /// even.lk.window = 20;
+    /// let refused = Tracker::<100>::new(even, 160, 120, buffers()).unwrap_err();
+    /// assert_eq!(refused.to_string(), "lk.window must be odd, 3 to 63");
+    /// // Buffers by their field, with the length they need.
+    /// let empty = Tracker::<100>::new(config, 160, 120, buffers()).unwrap_err();
+    /// let needed = tracker_storage_len(160, 120, config.pyramid_levels());
+    /// assert_eq!(empty, ConfigError { field: "buffers.storage", bound: Bound::MinLen(needed) });
+    /// assert_eq!(empty.to_string(), "buffers.storage must hold at least 13080 elements");
     /// ```
     pub fn new(
         config: TrackerConfig,
         width: usize,
         height: usize,
         buffers: TrackerBuffers<'a>,
-    ) -> Result<Self, TrackerError> {
+    ) -> Result<Self, ConfigError> {
         let checked = config.validate(N)?;
         let sides = 1..=MAX_DIMENSION;
-        if !sides.contains(&width) || !sides.contains(&height) {
-            return Err(TrackerError::BadFrameSize);
+        let side_bound = Bound::Range {
+            min: 1,
+            max: bound_number(MAX_DIMENSION),
+        };
+        if !sides.contains(&width) {
+            return Err(ConfigError::new("width", side_bound));
+        }
+        if !sides.contains(&height) {
+            return Err(ConfigError::new("height", side_bound));
         }
         check_buffers(&config, width, height, &buffers)?;
         Ok(Self {
@@ -905,22 +898,27 @@ fn check_buffers(
     width: usize,
     height: usize,
     buffers: &TrackerBuffers<'_>,
-) -> Result<(), TrackerError> {
+) -> Result<(), ConfigError> {
     let levels = config.pyramid_levels();
-    if buffers.storage.len() < tracker_storage_len(width, height, levels) {
-        return Err(TrackerError::StorageTooSmall);
+    let storage = tracker_storage_len(width, height, levels);
+    if buffers.storage.len() < storage {
+        return Err(ConfigError::min_len("buffers.storage", storage));
     }
-    if buffers.lk_scratch.len() < scratch_len(config.lk.window) {
-        return Err(TrackerError::LkScratchTooSmall);
+    let lk_scratch = scratch_len(config.lk.window);
+    if buffers.lk_scratch.len() < lk_scratch {
+        return Err(ConfigError::min_len("buffers.lk_scratch", lk_scratch));
     }
     let candidates = buffers.candidates.len();
     if candidates < config.max_tracks {
-        return Err(TrackerError::CandidatesTooSmall);
+        return Err(ConfigError::min_len(
+            "buffers.candidates",
+            config.max_tracks,
+        ));
     }
     let needs_scratch = matches!(config.detector, Detector::ShiTomasi(_));
     let scratch = detect_scratch_len(width, config.detect_level, candidates);
     if needs_scratch && buffers.detect_scratch.len() < scratch {
-        return Err(TrackerError::DetectScratchTooSmall);
+        return Err(ConfigError::min_len("buffers.detect_scratch", scratch));
     }
     Ok(())
 }

@@ -14,7 +14,7 @@ use kestrel::ego::{
     OpticalFlowRad, Ransac, RansacError, RansacParams, Rotation,
 };
 use kestrel::ego::{FOCAL_RANGE, MAX_DISTORTION};
-use kestrel::Point;
+use kestrel::{Bound, ConfigError, Point};
 
 /// A track: its previous and next position, pixels.
 type Pair = ((f32, f32), (f32, f32));
@@ -179,14 +179,15 @@ fn check_ransac(input: &Input, kind: ModelKind, pairs: &[Pair]) -> Option<EgoMot
     };
     let t = params.threshold;
     let expected = if !(t > 0.0 && t <= 1000.0) {
-        Some(RansacError::BadThreshold)
+        Some(("threshold", Bound::PositiveAtMost(1000)))
     } else if params.max_iterations == 0 {
-        Some(RansacError::ZeroIterations)
+        Some(("max_iterations", Bound::AtLeast(1)))
     } else if !(params.confidence > 0.0 && params.confidence < 1.0) {
-        Some(RansacError::BadConfidence)
+        Some(("confidence", Bound::Fraction))
     } else {
         None
     };
+    let expected = expected.map(|(field, bound)| ConfigError { field, bound });
     let ransac = match Ransac::new(params) {
         Ok(r) => r,
         Err(e) => {

@@ -15,7 +15,7 @@ use kestrel::ego::{Camera, CameraParams, EgoStatus, ModelKind, Ransac, RansacPar
 use kestrel::lk::scratch_len;
 use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError};
 use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig, TrackerError};
-use kestrel::Q16;
+use kestrel::{ConfigError, Q16};
 
 /// The sensor's capacity: the preset's 25 tracks.
 const N: usize = 25;
@@ -107,11 +107,18 @@ pub fn run(data: &[u8]) {
     let sensor = match FlowSensor::<N>::new(config, w, h, buffers) {
         Ok(sensor) => sensor,
         Err(e) => {
-            // Refused for its camera or its fit only, exactly when the library rejects them.
-            match e {
-                FlowSensorError::Camera(c) => assert_eq!(Camera::new(camera).err(), Some(c)),
-                FlowSensorError::Ransac(r) => assert_eq!(Ransac::new(config.ransac).err(), Some(r)),
-                FlowSensorError::Tracker(t) => panic!("the preset's tracker was refused: {t:?}"),
+            // Refused for its camera or its fit only, exactly when the library rejects them,
+            // and named by the setting's path in the configuration.
+            let part = |field: &str| ConfigError {
+                field: e.field.strip_prefix(field).unwrap_or("not this part"),
+                ..e
+            };
+            match e.field.split('.').next() {
+                Some("camera") => assert_eq!(Camera::new(camera).err(), Some(part("camera."))),
+                Some("ransac") => {
+                    assert_eq!(Ransac::new(config.ransac).err(), Some(part("ransac.")))
+                }
+                _ => panic!("the preset's tracker was refused: {e:?}"),
             }
             return;
         }

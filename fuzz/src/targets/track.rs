@@ -18,7 +18,7 @@ use kestrel::track::{
     detect_scratch_len, tracker_storage_len, Detector, FrameReport, Track, Tracker, TrackerBuffers,
     TrackerConfig, TrackerError,
 };
-use kestrel::{Point, Q16};
+use kestrel::{ConfigError, Point, Q16};
 use std::collections::HashSet;
 
 /// The tracker's capacity.
@@ -193,21 +193,21 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
 }
 
 /// A buffer is refused only when it is short.
-fn check_refusal(e: TrackerError, input: &Input, config: &TrackerConfig) {
-    match e {
-        TrackerError::StorageTooSmall => assert!(input.storage_delta < 0),
-        TrackerError::LkScratchTooSmall => assert!(input.lk_delta < 0),
-        TrackerError::DetectScratchTooSmall => assert!(input.detect_delta < 0),
-        TrackerError::CandidatesTooSmall => {
+fn check_refusal(e: ConfigError, input: &Input, config: &TrackerConfig) {
+    match e.field {
+        "buffers.storage" => assert!(input.storage_delta < 0),
+        "buffers.lk_scratch" => assert!(input.lk_delta < 0),
+        "buffers.detect_scratch" => assert!(input.detect_delta < 0),
+        "buffers.candidates" => {
             assert!(usize::from(input.candidates % 40) < config.max_tracks)
         }
-        TrackerError::BadMaxTracks => assert!(config.max_tracks == 0 || config.max_tracks > N),
-        TrackerError::BadRefillThreshold => assert!(config.refill_below > config.max_tracks),
-        TrackerError::BadMaxRelocation => assert!(config.max_relocation.is_nan()),
-        TrackerError::BadFineSearch | TrackerError::BadFbSchedule => {
+        "max_tracks" => assert!(config.max_tracks == 0 || config.max_tracks > N),
+        "refill_below" => assert!(config.refill_below > config.max_tracks),
+        "max_relocation" => assert!(config.max_relocation.is_nan()),
+        "fine_search" | "fb_every" => {
             panic!("a valid search or schedule was refused: {config:?}")
         }
-        TrackerError::BadFrameSize => panic!("a 1..=64 px frame was refused"),
+        "width" | "height" => panic!("a 1..=64 px frame was refused"),
         _ => {}
     }
 }

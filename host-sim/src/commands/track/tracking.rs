@@ -5,11 +5,13 @@ use std::time::Instant;
 
 use kestrel::detect::Corner;
 use kestrel::detect::{Grid, MAX_CELLS_PER_SIDE};
+use kestrel::frame::ImageError;
 use kestrel::lk::{scratch_len, Illumination, LkParams, TemplatePlacement};
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,
     TrackerConfig, TrackerError,
 };
+use kestrel::ConfigError;
 
 use crate::cli::values;
 use crate::Frame;
@@ -212,7 +214,28 @@ pub struct TrackingFailure {
     /// The frame, counted from 0.
     pub frame: usize,
     /// What the library said.
-    pub error: TrackerError,
+    pub error: TrackingError,
+}
+
+/// What the library refused while tracking a sequence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackingError {
+    /// The tracker's settings or buffers, for the first frame's size.
+    Config(ConfigError),
+    /// A frame's pixels could not be viewed.
+    Image(ImageError),
+    /// A frame.
+    Frame(TrackerError),
+}
+
+impl fmt::Display for TrackingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TrackingError::Config(e) => e.fmt(f),
+            TrackingError::Image(e) => e.fmt(f),
+            TrackingError::Frame(e) => e.fmt(f),
+        }
+    }
 }
 
 impl fmt::Display for TrackingFailure {
@@ -260,13 +283,13 @@ where
     let config = configure(first.width, first.height);
     let mut buffers = HostBuffers::new(&config, first.width, first.height);
     let mut tracker = Tracker::<MAX_TRACKS>::new(config, first.width, first.height, buffers.lend())
-        .map_err(fail(0))?;
+        .map_err(|e| fail(0)(TrackingError::Config(e)))?;
 
     let clock = Instant::now();
-    let view = first
-        .view()
-        .map_err(|_| fail(0)(TrackerError::BadFrameSize))?;
-    let report = tracker.start(view).map_err(fail(0))?;
+    let view = first.view().map_err(|e| fail(0)(TrackingError::Image(e)))?;
+    let report = tracker
+        .start(view)
+        .map_err(|e| fail(0)(TrackingError::Frame(e)))?;
     let seconds = clock.elapsed().as_secs_f64();
     each(&TrackedFrame {
         index: 0,
@@ -281,15 +304,15 @@ where
     for next in frames {
         let next = next?;
         let index = count;
-        let bad_size = |_| fail(index)(TrackerError::FrameSizeMismatch);
+        let unviewable = |e| fail(index)(TrackingError::Image(e));
         let (prev_view, next_view) = (
-            prev.view().map_err(bad_size)?,
-            next.view().map_err(bad_size)?,
+            prev.view().map_err(unviewable)?,
+            next.view().map_err(unviewable)?,
         );
         let clock = Instant::now();
         let report = tracker
             .process(prev_view, next_view, None)
-            .map_err(fail(index))?;
+            .map_err(|e| fail(index)(TrackingError::Frame(e)))?;
         let seconds = clock.elapsed().as_secs_f64();
         each(&TrackedFrame {
             index,

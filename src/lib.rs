@@ -19,6 +19,11 @@
 //!
 //! Nothing allocates: every buffer is owned by the caller and sized by a `const fn`, so firmware
 //! can place it in a `static`.
+//!
+//! A refused setting or buffer is a [`ConfigError`]: the field as the caller writes it
+//! (`"lk.window"`, `"buffers.storage"`) and the [`Bound`] it broke. What a frame can meet is
+//! each module's own error, apart ([`track::TrackerError`], [`lk::LkError`],
+//! [`dense::DenseError`], [`sensor::FlowSensorError`]).
 #![no_std]
 // Unsafe code is denied everywhere but in `dsp`, whose `asm!` blocks are register-only
 // instructions and whose SSE2 code loads and stores only the arrays it borrows (see below).

@@ -41,7 +41,7 @@
 /// assert_eq!(refused, ConfigError { field: "buffers.storage", bound: Bound::MinLen(needed) });
 /// assert_eq!(refused.to_string(), "buffers.storage must hold at least 13080 elements");
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ConfigError {
     /// The setting or buffer, as the caller writes it: a field name, or a path of field names
@@ -144,6 +144,29 @@ impl core::fmt::Display for ConfigError {
     /// ```
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(f, "{} {}", self.field, self.bound)
+    }
+}
+
+impl core::fmt::Debug for ConfigError {
+    /// As a derived `Debug` would write it, but with the field written as it is: it is one of
+    /// the library's own names, plain ASCII with nothing to escape, and escaping a `str` would
+    /// link core's Unicode tables into every firmware that logs an error (about 5 KB of
+    /// Cortex-M4 flash).
+    ///
+    /// ```
+    /// use kestrel::{Bound, ConfigError};
+    /// let refused = ConfigError { field: "lk.window", bound: Bound::OddRange { min: 3, max: 63 } };
+    /// assert_eq!(
+    ///     format!("{refused:?}"),
+    ///     r#"ConfigError { field: "lk.window", bound: OddRange { min: 3, max: 63 } }"#
+    /// );
+    /// ```
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "ConfigError {{ field: \"{}\", bound: {:?} }}",
+            self.field, self.bound
+        )
     }
 }
 

@@ -168,7 +168,7 @@ pub fn run(meter: &Meter, memory: &'static mut SensorMemory, link: &mut Link) ->
     let mut sensor = match Sensor::new(memory, meter) {
         Ok(s) => s,
         Err(e) => {
-            hprintln!("error sensor preset refused: {}", e);
+            hprintln!("error sensor preset refused: {:?}", e);
             return false;
         }
     };

@@ -1,5 +1,5 @@
-//! A candidate's outlines written as boxes: the largest first, specks left out, and an
-//! object's outline seen from two candidates written once.
+//! A candidate's outlines written as boxes: the largest first, specks left out, the parts of
+//! one body joined, and an object's outline seen from two candidates written once.
 
 use super::area::Area;
 use super::flood::{flood, Outline, VISITED};
@@ -7,11 +7,26 @@ use super::flows::Flows;
 use super::scratch::OutlineScratch;
 use super::Outliner;
 use crate::dense::regions::MotionBox;
+use crate::q16::Point;
 
 /// An outline with fewer than one in this many of the pixels of its candidate's largest is a
 /// speck of chance matches at that object's edge, where it covers or uncovers ground; two
 /// objects in one region are rarely that unequal.
 const SPECK_RATIO: usize = 8;
+
+/// Outlines of one candidate at most this far apart, px (the gap between their boxes), may be
+/// parts of one body: a walker's legs and arms leave a pixel or two of ground between them
+/// and the torso where their flows disagree.
+const PART_GAP: u16 = 4;
+
+/// Parts of one body move alike: two outlines join when their flows differ by at most this,
+/// Q16 (one pixel), or by at most half the faster one's flow ([`PART_SHARE_SHIFT`]): a leg
+/// swings at up to twice its torso's speed, while two bodies that pass each other rarely move
+/// within half a speed of each other.
+const PART_FLOW: i64 = 1 << 16;
+
+/// Half, as a shift of a squared flow (a quarter).
+const PART_SHARE_SHIFT: u32 = 2;
 
 /// The largest outlines of a candidate, with their pixels, the largest first.
 type Ranked = heapless::Vec<(usize, MotionBox), 16>;
@@ -47,12 +62,78 @@ impl Outliner {
         // The largest first: a speck of chance matches on an object is covered by it, and one
         // beside it (where it uncovers or covers the ground) is far smaller than it.
         let largest = found.first().map_or(0, |(pixels, _)| *pixels);
+        let mut parts = Parts::new();
         for (pixels, b) in found {
             if pixels.saturating_mul(SPECK_RATIO) >= largest {
-                written = push_new(boxes, written, b);
+                // At most as many as `found` holds.
+                let pushed = parts.push(b);
+                debug_assert!(pushed.is_ok(), "more parts than ranked outlines");
             }
         }
+        join_parts(&mut parts);
+        for b in parts {
+            written = push_new(boxes, written, b);
+        }
         written
+    }
+}
+
+/// A candidate's outlines after the specks are left out, the largest first.
+type Parts = heapless::Vec<MotionBox, 16>;
+
+/// Joins the outlines that are parts of one body ([`PART_GAP`], [`PART_FLOW`]) into one box,
+/// with the flow of the larger (earlier) one, until no two are.
+fn join_parts(parts: &mut Parts) {
+    while let Some((i, j)) = first_parts_of_one_body(parts) {
+        // `i < j < len`, as found.
+        let b = parts.remove(j);
+        if let Some(a) = parts.get_mut(i) {
+            *a = union(a, &b);
+        }
+    }
+}
+
+/// The first pair `i < j` of `parts` that are parts of one body.
+fn first_parts_of_one_body(parts: &Parts) -> Option<(usize, usize)> {
+    parts.iter().enumerate().find_map(|(i, a)| {
+        let rest = parts.iter().enumerate().skip(i + 1);
+        rest.filter(|(_, b)| one_body(a, b))
+            .map(|(j, _)| (i, j))
+            .next()
+    })
+}
+
+/// True when `a` and `b` lie within [`PART_GAP`] of each other and move alike.
+fn one_body(a: &MotionBox, b: &MotionBox) -> bool {
+    let gap = |a0: u16, a_len: u16, b0: u16, b_len: u16| {
+        let (a1, b1) = (a0.saturating_add(a_len), b0.saturating_add(b_len));
+        b0.saturating_sub(a1).max(a0.saturating_sub(b1))
+    };
+    let near = gap(a.x, a.w, b.x, b.w).max(gap(a.y, a.h, b.y, b.h)) <= PART_GAP;
+    near && moves_alike(a.mean_flow, b.mean_flow)
+}
+
+/// True when flows `a` and `b` differ by at most [`PART_FLOW`] or half the faster one.
+fn moves_alike(a: Point, b: Point) -> bool {
+    let sq = |x: i64, y: i64| x.saturating_mul(x).saturating_add(y.saturating_mul(y));
+    let bits = |p: Point| (i64::from(p.x.to_bits()), i64::from(p.y.to_bits()));
+    let ((ax, ay), (bx, by)) = (bits(a), bits(b));
+    let apart = sq(ax.saturating_sub(bx), ay.saturating_sub(by));
+    let faster = sq(ax, ay).max(sq(bx, by));
+    apart <= (PART_FLOW * PART_FLOW).max(faster >> PART_SHARE_SHIFT)
+}
+
+/// The box around `a` and `b`, with `a`'s nodes and flow.
+fn union(a: &MotionBox, b: &MotionBox) -> MotionBox {
+    let (x0, y0) = (a.x.min(b.x), a.y.min(b.y));
+    let x1 = a.x.saturating_add(a.w).max(b.x.saturating_add(b.w));
+    let y1 = a.y.saturating_add(a.h).max(b.y.saturating_add(b.h));
+    MotionBox {
+        x: x0,
+        y: y0,
+        w: x1 - x0,
+        h: y1 - y0,
+        ..*a
     }
 }
 
@@ -120,4 +201,64 @@ fn covers(a: &MotionBox, b: &MotionBox) -> bool {
 
 fn to_u16(v: usize) -> u16 {
     u16::try_from(v).unwrap_or(u16::MAX)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(x: u16, y: u16, w: u16, h: u16, flow: (f32, f32)) -> MotionBox {
+        let mean_flow = Point::from_f32(flow.0, flow.1);
+        MotionBox {
+            x,
+            y,
+            w,
+            h,
+            nodes: 1,
+            mean_flow,
+        }
+    }
+
+    #[test]
+    fn a_bodys_parts_join_and_two_bodies_do_not() {
+        // A walker's torso, and a leg 2 px below it swinging at 1.8 times its speed: 1.6 px
+        // apart, within half the leg's speed.
+        let torso = part(40, 20, 10, 16, (2.0, 0.0));
+        let leg = part(41, 38, 5, 10, (3.6, 0.2));
+        let mut parts = Parts::from_slice(&[torso, leg]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.as_slice(), [part(40, 20, 10, 28, (2.0, 0.0))]);
+        // The same leg swinging at 2.5 times: 3 px apart, beyond half its speed.
+        let kick = part(41, 38, 5, 10, (5.0, 0.0));
+        let mut parts = Parts::from_slice(&[torso, kick]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.len(), 2);
+        // Two walkers passing each other 2 px apart: opposite flows stay two boxes.
+        let other = part(52, 20, 10, 16, (-2.0, 0.0));
+        let mut parts = Parts::from_slice(&[torso, other]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.len(), 2);
+        // Alike, but 5 px apart: two boxes.
+        let apart = part(55, 20, 10, 16, (2.0, 0.0));
+        let mut parts = Parts::from_slice(&[torso, apart]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.len(), 2);
+        // Slow parts differ by up to a pixel (the outline's own flow step): joined.
+        let slow = part(40, 37, 10, 6, (0.0, 0.9));
+        let still = part(40, 20, 10, 16, (0.0, 0.0));
+        let mut parts = Parts::from_slice(&[still, slow]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.len(), 1);
+    }
+
+    #[test]
+    fn joining_goes_on_until_no_two_parts_are_one_body() {
+        // A chain: head - torso - leg, each within reach of the next only.
+        let head = part(42, 10, 6, 6, (1.0, 0.0));
+        let torso = part(40, 18, 10, 16, (1.1, 0.0));
+        let leg = part(41, 36, 5, 10, (1.6, 0.0));
+        let mut parts = Parts::from_slice(&[torso, leg, head]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.as_slice(), [part(40, 10, 10, 36, (1.1, 0.0))]);
+    }
 }

@@ -18,7 +18,7 @@
 /// must be, with the actual numbers; `Display` writes both as one sentence.
 ///
 /// ```
-/// use kestrel::track::{tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig};
+/// use kestrel::track::{tracker_storage_len, Refill, Tracker, TrackerBuffers, TrackerConfig};
 /// use kestrel::{Bound, ConfigError};
 /// let buffers = || TrackerBuffers {
 ///     storage: &mut [],
@@ -31,7 +31,8 @@
 /// assert_eq!(refused, ConfigError { field: "max_tracks", bound: Bound::Range { min: 1, max: 4 } });
 /// assert_eq!(refused.to_string(), "max_tracks must be 1 to 4");
 /// // A nested setting by its path, a buffer by its field and the length it needs.
-/// let mut config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+/// let refill = Refill { below: 4, ..Refill::default() };
+/// let mut config = TrackerConfig { max_tracks: 4, refill, ..TrackerConfig::default() };
 /// config.lk.window = 64;
 /// let refused = Tracker::<4>::new(config, 160, 120, buffers()).unwrap_err();
 /// assert_eq!(refused.to_string(), "lk.window must be odd, 3 to 63");

@@ -32,7 +32,7 @@ use kestrel::lk::{
     scratch_len, Illumination, LkParams, LucasKanade, PointTrack, TemplatePlacement, TrackStatus,
 };
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
-use kestrel::track::{Detector, Track, Tracker, TrackerConfig, TrackerError};
+use kestrel::track::{Detector, Gates, Refill, Track, Tracker, TrackerConfig, TrackerError};
 use kestrel::{Point, Q16};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, RngSeed};
@@ -262,7 +262,11 @@ proptest! {
             }
         }
 
-        let config = TrackerConfig { max_tracks: 32, refill_below: 0, ..TrackerConfig::default() };
+        let config = TrackerConfig {
+            max_tracks: 32,
+            refill: Refill { below: 0, ..Refill::default() },
+            ..TrackerConfig::default()
+        };
         let mut buffers = HostBuffers::new(&config, width, height);
         let mut tracker = Tracker::<32>::new(config, width, height, buffers.lend()).unwrap();
         let view = f.view().unwrap();
@@ -483,20 +487,25 @@ fn tracker_config() -> impl Strategy<Value = TrackerConfig> {
                         ..TrackerConfig::default().lk
                     },
                     max_tracks,
-                    refill_below: refill.min(max_tracks),
-                    detector,
-                    detect_level,
-                    grid: Grid {
-                        cols,
-                        rows,
-                        per_cell,
+                    refill: Refill {
+                        below: refill.min(max_tracks),
+                        detector,
+                        level: detect_level,
+                        grid: Grid {
+                            cols,
+                            rows,
+                            per_cell,
+                        },
+                        border,
+                        min_distance,
                     },
-                    border,
-                    min_distance,
-                    fb_threshold,
-                    max_residual,
-                    residual_ratio,
-                    min_correlation,
+                    gates: Gates {
+                        fb_threshold,
+                        max_residual,
+                        residual_ratio,
+                        min_correlation,
+                        ..Gates::default()
+                    },
                     ..TrackerConfig::default()
                 }
             },

@@ -17,7 +17,9 @@ use host_sim::synth::{
 use host_sim::tracking::{track_sequence, HostBuffers, TrackingFailure};
 use host_sim::Frame;
 use kestrel::frame::ImageView;
-use kestrel::track::{FrameReport, Track, Tracker, TrackerConfig, TrackerError};
+use kestrel::track::{
+    FrameReport, Gates, Refill, Relocation, Search, Track, Tracker, TrackerConfig, TrackerError,
+};
 use kestrel::Point;
 
 /// Capacity of the trackers under test.
@@ -444,9 +446,15 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     let on = occlusion_figures(&sequence, &gated, "occlusion, every gate");
     // The forward-backward and absolute residual gates alone, as a baseline.
     let classic = TrackerConfig {
-        residual_ratio: f32::INFINITY,
-        min_correlation: -1.0,
-        relocate_every: 0,
+        gates: Gates {
+            residual_ratio: f32::INFINITY,
+            min_correlation: -1.0,
+            ..Gates::default()
+        },
+        relocation: Relocation {
+            every: 0,
+            ..Relocation::default()
+        },
         ..TrackerConfig::default()
     };
     let off = occlusion_figures(
@@ -539,15 +547,18 @@ fn frame_pair(width: usize, height: usize) -> (Frame, Frame) {
 fn small_config() -> TrackerConfig {
     TrackerConfig {
         max_tracks: 20,
-        refill_below: 16,
+        refill: Refill {
+            below: 16,
+            ..Refill::default()
+        },
         ..TrackerConfig::default()
     }
 }
 
 /// Every field of `TrackerConfig`, refused at each bound it has and accepted at the edges it
 /// allows, by `Tracker::new` and by a flow sensor holding it: a refusal names the field by its
-/// path, as the caller writes it (`"lk.window"`, `"grid.cols"`; `"tracker.lk.window"` in a
-/// sensor's configuration), with the bound it broke.
+/// path, as the caller writes it (`"lk.window"`, `"refill.grid.cols"`, `"gates.fb_threshold"`;
+/// `"tracker.lk.window"` in a sensor's configuration), with the bound it broke.
 #[test]
 fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
     use kestrel::detect::{Fast, Grid, ShiTomasi};
@@ -563,24 +574,35 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
     let TrackerConfig {
         lk: _,
         max_tracks: _,
-        refill_below: _,
-        detector: _,
-        detect_level: _,
-        grid: _,
-        border: _,
-        min_distance: _,
-        fb_threshold: _,
-        max_residual: _,
-        residual_ratio: _,
-        min_correlation: _,
-        relocate_every: _,
-        relocate_from_age: _,
-        max_relocation: _,
-        constant_velocity: _,
-        fine_search: _,
-        fb_every: _,
-        fb_doubt: _,
         pyramid: _,
+        search: Search {
+            constant_velocity: _,
+            fine_reach: _,
+        },
+        gates:
+            Gates {
+                fb_threshold: _,
+                fb_every: _,
+                fb_doubt: _,
+                max_residual: _,
+                residual_ratio: _,
+                min_correlation: _,
+            },
+        refill:
+            Refill {
+                below: _,
+                detector: _,
+                level: _,
+                grid: _,
+                border: _,
+                min_distance: _,
+            },
+        relocation:
+            Relocation {
+                every: _,
+                from_age: _,
+                max_distance: _,
+            },
     } = base;
     let with = |change: &dyn Fn(&mut TrackerConfig)| {
         let mut config = base;
@@ -632,73 +654,81 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
         ("max_tracks", tracks, with(&|c| c.max_tracks = 0)),
         ("max_tracks", tracks, with(&|c| c.max_tracks = CAPACITY + 1)),
         (
-            "refill_below",
+            "refill.below",
             Bound::AtMost(20),
-            with(&|c| c.refill_below = 21),
+            with(&|c| c.refill.below = 21),
         ),
         (
-            "detect_level",
+            "refill.level",
             Bound::AtMost(7),
-            with(&|c| c.detect_level = 8),
+            with(&|c| c.refill.level = 8),
         ),
-        ("grid.cols", cells, with(&|c| c.grid.cols = 0)),
-        ("grid.cols", cells, with(&|c| c.grid.cols = 33)),
-        ("grid.rows", cells, with(&|c| c.grid.rows = 0)),
+        ("refill.grid.cols", cells, with(&|c| c.refill.grid.cols = 0)),
         (
-            "detector.block",
+            "refill.grid.cols",
+            cells,
+            with(&|c| c.refill.grid.cols = 33),
+        ),
+        ("refill.grid.rows", cells, with(&|c| c.refill.grid.rows = 0)),
+        (
+            "refill.detector.block",
             Bound::OddRange { min: 3, max: 7 },
-            with(&|c| c.detector = shi_tomasi(4, 0.01)),
+            with(&|c| c.refill.detector = shi_tomasi(4, 0.01)),
         ),
         (
-            "detector.quality_level",
+            "refill.detector.quality_level",
             Bound::Range { min: 0, max: 1 },
-            with(&|c| c.detector = shi_tomasi(3, 2.0)),
+            with(&|c| c.refill.detector = shi_tomasi(3, 2.0)),
         ),
         (
-            "fb_threshold",
+            "gates.fb_threshold",
             Bound::NonNegative,
-            with(&|c| c.fb_threshold = f32::NAN),
+            with(&|c| c.gates.fb_threshold = f32::NAN),
         ),
         (
-            "fb_threshold",
+            "gates.fb_threshold",
             Bound::NonNegative,
-            with(&|c| c.fb_threshold = -1.0),
+            with(&|c| c.gates.fb_threshold = -1.0),
         ),
         (
-            "max_residual",
+            "gates.max_residual",
             Bound::NonNegative,
-            with(&|c| c.max_residual = -0.5),
+            with(&|c| c.gates.max_residual = -0.5),
         ),
         (
-            "residual_ratio",
+            "gates.residual_ratio",
             Bound::NonNegative,
-            with(&|c| c.residual_ratio = f32::NAN),
+            with(&|c| c.gates.residual_ratio = f32::NAN),
         ),
         (
-            "min_correlation",
+            "gates.min_correlation",
             Bound::AtMost(1),
-            with(&|c| c.min_correlation = 1.5),
+            with(&|c| c.gates.min_correlation = 1.5),
         ),
         (
-            "min_correlation",
+            "gates.min_correlation",
             Bound::AtMost(1),
-            with(&|c| c.min_correlation = f32::NAN),
+            with(&|c| c.gates.min_correlation = f32::NAN),
         ),
         (
-            "max_relocation",
+            "relocation.max_distance",
             Bound::NonNegative,
-            with(&|c| c.max_relocation = -1.0),
+            with(&|c| c.relocation.max_distance = -1.0),
         ),
         (
-            "fine_search",
+            "search.fine_reach",
             Bound::NonNegative,
-            with(&|c| c.fine_search = f32::NAN),
+            with(&|c| c.search.fine_reach = f32::NAN),
         ),
-        ("fb_every", Bound::AtLeast(1), with(&|c| c.fb_every = 0)),
         (
-            "fb_doubt",
+            "gates.fb_every",
+            Bound::AtLeast(1),
+            with(&|c| c.gates.fb_every = 0),
+        ),
+        (
+            "gates.fb_doubt",
             Bound::NonNegative,
-            with(&|c| c.fb_doubt = -0.25),
+            with(&|c| c.gates.fb_doubt = -0.25),
         ),
     ];
     let camera = CameraParams::from_horizontal_fov(64, 48, 1.0);
@@ -733,41 +763,55 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
         with(&|c| c.lk.max_iterations = u32::MAX),
         with(&|c| c.lk.epsilon = 0.0),
         with(&|c| c.lk.min_eigen_threshold = 0.0),
-        with(&|c| (c.max_tracks, c.refill_below) = (1, 0)),
-        with(&|c| (c.max_tracks, c.refill_below) = (CAPACITY, CAPACITY)),
-        with(&|c| c.detect_level = 7),
+        with(&|c| (c.max_tracks, c.refill.below) = (1, 0)),
+        with(&|c| (c.max_tracks, c.refill.below) = (CAPACITY, CAPACITY)),
+        with(&|c| c.refill.level = 7),
         with(&|c| {
-            c.detector = Detector::Fast(Fast {
+            c.refill.detector = Detector::Fast(Fast {
                 threshold: u8::MAX,
                 nonmax: false,
             })
         }),
-        with(&|c| c.detector = shi_tomasi(7, 0.0)),
-        with(&|c| c.detector = shi_tomasi(3, 1.0)),
+        with(&|c| c.refill.detector = shi_tomasi(7, 0.0)),
+        with(&|c| c.refill.detector = shi_tomasi(3, 1.0)),
         with(&|c| {
-            c.grid = Grid {
+            c.refill.grid = Grid {
                 cols: 32,
                 rows: 32,
                 per_cell: 0,
             }
         }),
-        with(&|c| (c.border, c.min_distance) = (u16::MAX, u16::MAX)),
+        with(&|c| (c.refill.border, c.refill.min_distance) = (u16::MAX, u16::MAX)),
         with(&|c| {
-            (c.fb_threshold, c.max_residual, c.residual_ratio) = (0.0, 0.0, 0.0);
-            (c.max_relocation, c.fine_search, c.fb_doubt) = (0.0, 0.0, 0.0);
+            (
+                c.gates.fb_threshold,
+                c.gates.max_residual,
+                c.gates.residual_ratio,
+            ) = (0.0, 0.0, 0.0);
+            (
+                c.relocation.max_distance,
+                c.search.fine_reach,
+                c.gates.fb_doubt,
+            ) = (0.0, 0.0, 0.0);
         }),
         with(&|c| {
-            (c.fb_threshold, c.max_residual, c.residual_ratio) =
-                (f32::INFINITY, f32::INFINITY, f32::INFINITY);
-            (c.max_relocation, c.fine_search, c.fb_doubt) =
-                (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+            (
+                c.gates.fb_threshold,
+                c.gates.max_residual,
+                c.gates.residual_ratio,
+            ) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+            (
+                c.relocation.max_distance,
+                c.search.fine_reach,
+                c.gates.fb_doubt,
+            ) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
         }),
-        with(&|c| c.min_correlation = 1.0),
-        with(&|c| c.min_correlation = f32::NEG_INFINITY),
-        with(&|c| (c.relocate_every, c.relocate_from_age) = (0, 0)),
-        with(&|c| (c.relocate_every, c.relocate_from_age) = (u32::MAX, u32::MAX)),
-        with(&|c| c.constant_velocity = false),
-        with(&|c| c.fb_every = u32::MAX),
+        with(&|c| c.gates.min_correlation = 1.0),
+        with(&|c| c.gates.min_correlation = f32::NEG_INFINITY),
+        with(&|c| (c.relocation.every, c.relocation.from_age) = (0, 0)),
+        with(&|c| (c.relocation.every, c.relocation.from_age) = (u32::MAX, u32::MAX)),
+        with(&|c| c.search.constant_velocity = false),
+        with(&|c| c.gates.fb_every = u32::MAX),
         with(&|c| c.pyramid = PyramidFilter::Box),
     ];
     for config in &accepted {
@@ -846,7 +890,10 @@ fn short_buffers_are_refused_by_name_when_the_tracker_is_made() {
     );
     // FAST needs no detector scratch.
     let fast = TrackerConfig {
-        detector: Detector::Fast(Fast::default()),
+        refill: Refill {
+            detector: Detector::Fast(Fast::default()),
+            ..config.refill
+        },
         ..config
     };
     assert_eq!(refused(|b| b.detect_scratch.clear(), fast), None);
@@ -1019,8 +1066,14 @@ fn searches_from_predictions_track_as_well_as_the_whole_pyramid() {
         "6 px pan, searched from predictions",
     );
     let whole = TrackerConfig {
-        fine_search: 0.0,
-        fb_every: 1,
+        search: Search {
+            fine_reach: 0.0,
+            ..Search::default()
+        },
+        gates: Gates {
+            fb_every: 1,
+            ..Gates::default()
+        },
         ..TrackerConfig::default()
     };
     let whole = figures(&sequence, &run(&frames, whole), "6 px pan, whole pyramid");

@@ -13,8 +13,8 @@ use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{scratch_len, LkParams, TemplatePlacement};
 use kestrel::pyramid::Pyramid;
 use kestrel::track::{
-    detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers, TrackerConfig,
-    TrackerError, TrackerStage,
+    detect_scratch_len, tracker_storage_len, FrameReport, Refill, Tracker, TrackerBuffers,
+    TrackerConfig, TrackerError, TrackerStage,
 };
 use kestrel::{ConfigError, Point};
 
@@ -56,7 +56,10 @@ pub fn tracker_config() -> TrackerConfig {
             ..defaults.lk
         },
         max_tracks: MAX_TRACKS,
-        detect_level: DETECT_LEVEL,
+        refill: Refill {
+            level: DETECT_LEVEL,
+            ..defaults.refill
+        },
         ..defaults
     }
 }

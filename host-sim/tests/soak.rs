@@ -42,7 +42,7 @@
 //!
 //! LK follows a window from frame to frame, and its sub-pixel errors add up over hundreds of
 //! frames of rotation and zoom. Without relocation on the birth patch
-//! (`TrackerConfig::relocate_every` 0) old tracks drift: a 100 000-frame run had 73.80 % of
+//! (`Relocation::every` 0) old tracks drift: a 100 000-frame run had 73.80 % of
 //! all track-frames within 1 px, 98.27 % of those under 64 frames, 82.54 % under 512 frames
 //! and 25.45 % of older ones, worst error 7.06 px. The largest errors left are tracks at the
 //! frame's edge, where the birth patch reaches outside the frame and is not relocated.

@@ -567,7 +567,7 @@ impl Tracker {
         };
         let d = PyDict::new(py);
         d.set_item("max_tracks", c.max_tracks)?;
-        d.set_item("refill_below", c.refill_below)?;
+        d.set_item("refill_below", c.refill.below)?;
         d.set_item("window", c.lk.window)?;
         d.set_item("max_level", c.lk.max_level)?;
         d.set_item(
@@ -577,21 +577,28 @@ impl Tracker {
                 kestrel::lk::Illumination::GainBias => "gain_bias",
             },
         )?;
-        d.set_item("detect_level", c.detect_level)?;
+        d.set_item("detect_level", c.refill.level)?;
         d.set_item(
             "detector",
-            match c.detector {
+            match c.refill.detector {
                 kestrel::track::Detector::Fast(_) => "fast",
                 kestrel::track::Detector::ShiTomasi(_) => "shi_tomasi",
             },
         )?;
-        d.set_item("grid", (c.grid.cols, c.grid.rows, c.grid.per_cell))?;
-        d.set_item("fb_threshold", c.fb_threshold)?;
-        d.set_item("max_residual", c.max_residual)?;
-        d.set_item("residual_ratio", c.residual_ratio)?;
-        d.set_item("min_correlation", c.min_correlation)?;
-        d.set_item("relocate_every", c.relocate_every)?;
-        d.set_item("max_relocation", c.max_relocation)?;
+        d.set_item(
+            "grid",
+            (
+                c.refill.grid.cols,
+                c.refill.grid.rows,
+                c.refill.grid.per_cell,
+            ),
+        )?;
+        d.set_item("fb_threshold", c.gates.fb_threshold)?;
+        d.set_item("max_residual", c.gates.max_residual)?;
+        d.set_item("residual_ratio", c.gates.residual_ratio)?;
+        d.set_item("min_correlation", c.gates.min_correlation)?;
+        d.set_item("relocate_every", c.relocation.every)?;
+        d.set_item("max_relocation", c.relocation.max_distance)?;
         Ok(Some(d))
     }
 

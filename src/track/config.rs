@@ -12,9 +12,15 @@ use crate::{Bound, ConfigError};
 /// ```
 /// use kestrel::detect::{Corner, Fast};
 /// use kestrel::lk::scratch_len;
-/// use kestrel::track::{detect_scratch_len, tracker_storage_len, Detector, Tracker, TrackerBuffers, TrackerConfig};
+/// use kestrel::track::{
+///     detect_scratch_len, tracker_storage_len, Detector, Refill, Tracker, TrackerBuffers, TrackerConfig,
+/// };
 /// use kestrel::{Bound, ConfigError};
-/// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };
+/// let config = TrackerConfig {
+///     max_tracks: 4,
+///     refill: Refill { below: 2, ..Refill::default() },
+///     ..TrackerConfig::default()
+/// };
 /// let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
 /// let mut lk_scratch = [0i16; scratch_len(21)];
 /// let mut candidates = [Corner::default(); 4];
@@ -25,7 +31,8 @@ use crate::{Bound, ConfigError};
 ///         detect_scratch: &mut [],
 ///         candidates: &mut candidates,
 ///     };
-///     Tracker::<4>::new(TrackerConfig { detector, ..config }, 32, 32, buffers).map(|_| ())
+///     let refill = Refill { detector, ..config.refill };
+///     Tracker::<4>::new(TrackerConfig { refill, ..config }, 32, 32, buffers).map(|_| ())
 /// };
 /// // Shi-Tomasi, the default, needs detection scratch; FAST needs none.
 /// let needed = Bound::MinLen(detect_scratch_len(32, 1, 4));
@@ -43,7 +50,7 @@ pub enum Detector {
 
 impl Default for Detector {
     /// Shi-Tomasi with OpenCV's block and quality level and no minimum distance of its own
-    /// (the tracker spaces new corners with [`TrackerConfig::min_distance`]). On the
+    /// (the tracker spaces new corners with [`Refill::min_distance`]). On the
     /// half-resolution image detection runs on, FAST at its threshold of 10 finds too few
     /// corners in a 160 x 120 frame to keep 100 tracks.
     fn default() -> Self {
@@ -54,7 +61,10 @@ impl Default for Detector {
     }
 }
 
-/// Everything a [`super::Tracker`] is told.
+/// Everything a [`super::Tracker`] is told, in groups: LK, the number of tracks and the
+/// pyramid, then where each search starts ([`Search`]), when a track is dropped ([`Gates`]),
+/// when and where new tracks start ([`Refill`]) and how old tracks are brought back onto
+/// their feature ([`Relocation`]).
 ///
 /// The defaults suit 160 x 120 to 320 x 240 frames and 100 tracks:
 ///
@@ -72,7 +82,7 @@ impl Default for Detector {
 /// let config = TrackerConfig::default();
 /// let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
 /// let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
-/// let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.detect_level, 200)];
+/// let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 200)];
 /// let mut candidates = vec![Corner::default(); 200];
 /// let buffers = TrackerBuffers {
 ///     storage: &mut storage,
@@ -99,7 +109,7 @@ impl Default for Detector {
 /// // Spread over the frame, the corners start most of the 100 tracks (88 on this texture),
 /// // more than the 80 below which a frame detects new ones.
 /// let started = tracker.start(frame).unwrap();
-/// assert!(started.added >= config.refill_below);
+/// assert!(started.added >= config.refill.below);
 /// let still = tracker.process(frame, frame, None).unwrap();
 /// assert_eq!((still.tracked, still.detected), (started.added, false));
 /// ```
@@ -110,38 +120,191 @@ pub struct TrackerConfig {
     pub lk: LkParams,
     /// The number of tracks the tracker aims for, `1..=N`.
     pub max_tracks: usize,
-    /// New corners are detected when fewer than this many tracks are live after a frame,
-    /// `0..=max_tracks`; 0 detects only on [`super::Tracker::start`].
-    pub refill_below: usize,
-    /// The detector that starts new tracks.
-    pub detector: Detector,
-    /// The pyramid level detection runs on (0 = full resolution). Each level up divides the
-    /// cost of detection by four; corners found there start tracks at twice, four times...
-    /// their coordinates. At most [`MAX_LEVEL`]. Level 1 (the default) tracks as well as
-    /// level 0 (README, The track manager); level 2 of a 160 x 120 frame is too small to
-    /// supply 100 corners.
-    pub detect_level: usize,
-    /// Bucketing of new corners over the frame; live tracks count against their cell.
-    pub grid: Grid,
-    /// New corners keep this far from the frame's edges, px at full resolution.
-    pub border: u16,
-    /// New corners keep this far from live tracks and from each other, px at full resolution
-    /// (a square of this radius, rounded out to the exclusion mask's cells).
-    pub min_distance: u16,
+    /// How the tracker's pyramid levels are made (a dense grid that borrows them gets the
+    /// same).
+    pub pyramid: PyramidFilter,
+    /// Where each track's search starts, and on which pyramid levels.
+    pub search: Search,
+    /// When a followed track is dropped.
+    pub gates: Gates,
+    /// When new corners are detected, and where new tracks may start.
+    pub refill: Refill,
+    /// How old tracks are moved back onto the feature they were born on.
+    pub relocation: Relocation,
+}
+
+/// Where each track's search starts, and on which pyramid levels: a search that starts close
+/// to its answer converges in fewer iterations and needs fewer levels.
+///
+/// ```
+/// use kestrel::track::{Search, TrackerConfig};
+/// # use kestrel::detect::Corner;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::lk::scratch_len;
+/// # use kestrel::track::{detect_scratch_len, tracker_storage_len, Track, Tracker, TrackerBuffers};
+/// # const W: usize = 64;
+/// # const H: usize = 48;
+/// # // Smooth blobs, `shift` px to the right.
+/// # let scene = |shift: f32| -> Vec<u8> {
+/// #     (0..W * H).map(|i| {
+/// #         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+/// #         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
+/// #     }).collect()
+/// # };
+/// # // The tracks after a tracker of `config` has followed them through `frames`.
+/// # let run = |config: TrackerConfig, frames: &[Vec<u8>]| -> Vec<Track> {
+/// #     let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+/// #     let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+/// #     let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 24)];
+/// #     let mut candidates = vec![Corner::default(); 24];
+/// #     let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #         detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// #     let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
+/// #     let views: Vec<_> = frames.iter().map(|f| ImageView::packed(f, W, H).unwrap()).collect();
+/// #     tracker.start(views[0]).unwrap();
+/// #     for pair in views.windows(2) {
+/// #         tracker.process(pair[0], pair[1], None).unwrap();
+/// #     }
+/// #     tracker.tracks().to_vec()
+/// # };
+/// let mut config = TrackerConfig::default();
+/// config.max_tracks = 12;
+/// config.refill.below = 8;
+/// // The scene moves 1.5 px to the right every frame.
+/// let frames = [scene(0.0), scene(1.5), scene(3.0)];
+/// // How far each track's second step landed from where its search started.
+/// let misses = |search: Search| -> Vec<f32> {
+///     let tracks = run(TrackerConfig { search, ..config }, &frames);
+///     tracks.iter().filter(|t| t.age == 2).map(|t| t.prediction_error.to_num()).collect()
+/// };
+/// // The first step, repeated, predicts the second...
+/// let predicted = misses(Search::default());
+/// assert!(!predicted.is_empty() && predicted.iter().all(|&miss| miss < 0.1));
+/// // ...which otherwise starts at the track's position, a whole step away.
+/// let still = misses(Search { constant_velocity: false, ..Search::default() });
+/// assert!(!still.is_empty() && still.iter().all(|&miss| (miss - 1.5).abs() < 0.1));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Search {
+    /// Without a caller's prediction, each track's search starts where its latest step's
+    /// displacement predicts (constant velocity) instead of at its position. It assumes the
+    /// image's motion changes little from one frame to the next, as at a flight controller's
+    /// frame rates; a track's first step, with no displacement yet, starts from the median of
+    /// the other tracks' steps.
+    pub constant_velocity: bool,
+    /// Reach of the finest level, px: a track whose latest step landed within this distance
+    /// of its prediction ([`super::Track::prediction_error`]) is searched on pyramid level 0
+    /// only, within twice this from level 1, and so on up to `lk.max_level`; a track without
+    /// a prediction on the whole pyramid. A search that fails, or lands more than twice its
+    /// starting level's reach from its start, is repeated on the whole pyramid. Every level
+    /// skipped saves a template and its iterations. A number >= 0; 0 always searches the
+    /// whole pyramid, infinity starts every predicted track on level 0.
+    pub fine_reach: f32,
+}
+
+impl Search {
+    /// The default: constant velocity, and a reach of 1 px on the finest level.
+    const DEFAULT: Self = Self {
+        constant_velocity: true,
+        fine_reach: 1.0,
+    };
+}
+
+impl Default for Search {
+    /// Constant velocity, and a reach of 1 px on the finest level.
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// When a followed track is dropped: the cheap gates on every step (its residual, absolute
+/// and relative to the frame's, and its appearance against its birth patch), then the
+/// forward-backward check on a schedule and on every doubtful step.
+///
+/// A forward-backward check alone passes a window stuck on a flat or occluded region (it
+/// moves nowhere both ways); the residual gates catch that, and the appearance gate a window
+/// that slides off its feature a little every frame.
+///
+/// ```
+/// use kestrel::track::{Gates, TrackerConfig};
+/// # use kestrel::detect::Corner;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::lk::scratch_len;
+/// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
+/// # const W: usize = 64;
+/// # const H: usize = 48;
+/// # // Smooth blobs, `shift` px to the right.
+/// # let scene = |shift: f32| -> Vec<u8> {
+/// #     (0..W * H).map(|i| {
+/// #         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+/// #         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
+/// #     }).collect()
+/// # };
+/// # // The report of the second frame of a tracker of `config`.
+/// # let run = |config: TrackerConfig, first: &[u8], second: &[u8]| -> FrameReport {
+/// #     let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+/// #     let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+/// #     let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 24)];
+/// #     let mut candidates = vec![Corner::default(); 24];
+/// #     let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #         detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// #     let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
+/// #     let (first, second) = (ImageView::packed(first, W, H).unwrap(), ImageView::packed(second, W, H).unwrap());
+/// #     tracker.start(first).unwrap();
+/// #     tracker.process(first, second, None).unwrap()
+/// # };
+/// let mut config = TrackerConfig::default();
+/// config.max_tracks = 12;
+/// config.refill.below = 0;
+/// // The scene moves 1.5 px to the right and a flat grey board covers its left half.
+/// let first = scene(0.0);
+/// let mut second = scene(1.5);
+/// second.chunks_mut(W).for_each(|row| row[..W / 2].fill(128));
+/// let report = |gates: Gates| run(TrackerConfig { gates, ..config }, &first, &second);
+/// // The tracks under the board no longer look like their feature: the gates drop them.
+/// let gated = report(Gates::default());
+/// assert!(gated.dropped_residual + gated.dropped_appearance > 0);
+/// // With every gate off, LK's answer on the board is kept.
+/// let open = report(Gates {
+///     fb_threshold: f32::INFINITY,
+///     max_residual: f32::INFINITY,
+///     residual_ratio: f32::INFINITY,
+///     min_correlation: -1.0,
+///     ..Gates::default()
+/// });
+/// assert_eq!(open.dropped_residual + open.dropped_appearance + open.dropped_fb, 0);
+/// assert!(open.tracked > gated.tracked);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Gates {
     /// Forward-backward gate, px: a track whose way back from its new position misses its old
-    /// position by more than this is dropped. `f32::INFINITY` turns the check, and the
-    /// backward tracking it costs, off.
+    /// position by more than this is dropped. A number >= 0; infinity turns the check, and
+    /// the backward tracking it costs, off.
     pub fb_threshold: f32,
+    /// Forward-backward schedule, frames, at least 1: the backward check runs on every track
+    /// at least once in this many frames (tracks take turns by id), and on every step that
+    /// looks doubtful: a track's first step, a step that lands more than
+    /// [`Gates::fb_doubt`] from its prediction, and one whose search fell back on the whole
+    /// pyramid (searched again from the caller's prediction, or from the track's position
+    /// without one). It assumes a step that agrees with its track's own motion is rarely
+    /// wrong: the way back costs as much as the way forth. 1 checks every step.
+    pub fb_every: u32,
+    /// Distance from its prediction, px, beyond which a step is doubtful and checked
+    /// forward-backward (see [`Gates::fb_every`]). A number >= 0; infinity leaves only the
+    /// first steps, the fallbacks and the schedule.
+    pub fb_doubt: f32,
     /// Residual gate, grey levels: a track whose window, after the gain and bias correction,
     /// differs from the previous frame's by more than this on average is dropped. It catches
     /// what the forward-backward check cannot: a window stuck on an occluder moves nowhere in
-    /// both directions. `f32::INFINITY` turns it off.
+    /// both directions. A number >= 0; infinity turns it off.
     pub max_residual: f32,
     /// Relative residual gate: a track whose residual is more than this many times the
     /// median residual of the frame's tracks (taken as at least one grey level) is dropped.
     /// The median measures what noise, blur and interpolation cost every track in this frame,
     /// so the gate follows the camera: an occluder edge entering a window stands out from it
-    /// long before it reaches [`TrackerConfig::max_residual`]. `f32::INFINITY` turns it off.
+    /// before it reaches [`Gates::max_residual`]. A number >= 0; infinity turns it off.
     pub residual_ratio: f32,
     /// Appearance gate: a track whose neighbourhood (7 x 7 samples, 2 px apart) correlates
     /// less than this with its neighbourhood in its first frame is dropped (zero-mean
@@ -151,50 +314,202 @@ pub struct TrackerConfig {
     /// gravel, a sensor's noise and aliasing) decorrelates from itself when sampled at another
     /// sub-pixel phase, as every step samples it: while the image has not turned since its
     /// birth, a track is held to this times what its own patch keeps half a pixel off (at
-    /// least half of it), measured at birth. At most 1; -1 turns it off.
+    /// least half of it), measured at birth. At most 1; -1 or less turns it off.
     pub min_correlation: f32,
+}
+
+impl Gates {
+    /// The default gates.
+    const DEFAULT: Self = Self {
+        fb_threshold: 1.0,
+        fb_every: 8,
+        fb_doubt: 0.25,
+        max_residual: 12.0,
+        residual_ratio: 3.0,
+        min_correlation: 0.8,
+    };
+}
+
+impl Default for Gates {
+    /// A forward-backward gate of 1 px, checked once in 8 frames and on steps more than
+    /// 0.25 px from their prediction; residuals up to 12 grey levels and 3 times the frame's
+    /// median; a correlation of 0.8 with the birth patch.
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// When new corners are detected, and where new tracks may start: away from the frame's
+/// edges, from the live tracks and from each other, spread over the frame by a grid.
+///
+/// ```
+/// use kestrel::track::{Refill, TrackerConfig};
+/// # use kestrel::detect::Corner;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::lk::scratch_len;
+/// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
+/// # const W: usize = 160;
+/// # const H: usize = 120;
+/// # let texture: Vec<u8> = (0..W * H).map(|i| {
+/// #     let (x, y) = (i % W, i / W);
+/// #     ((x * 37 + y * 91 + (x * y) % 13 * 17) % 251) as u8
+/// # }).collect();
+/// # let frame = ImageView::packed(&texture, W, H).unwrap();
+/// # // The reports of a tracker of `config` started on the texture and shown it again.
+/// # let run = |config: TrackerConfig| -> (FrameReport, FrameReport) {
+/// #     let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+/// #     let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+/// #     let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 200)];
+/// #     let mut candidates = vec![Corner::default(); 200];
+/// #     let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #         detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// #     let mut tracker = Tracker::<100>::new(config, W, H, buffers).unwrap();
+/// #     let started = tracker.start(frame).unwrap();
+/// #     (started, tracker.process(frame, frame, None).unwrap())
+/// # };
+/// let refilled = |refill: Refill| run(TrackerConfig { refill, ..TrackerConfig::default() });
+/// // The texture starts most of the 100 tracks, more than the 80 below which new corners are
+/// // detected; a still frame keeps them all and detects none.
+/// let (started, still) = refilled(Refill::default());
+/// assert!(started.added >= 80 && started.added < 100);
+/// assert!(!still.detected);
+/// // Asked to keep all 100, the tracker detects again at once.
+/// let (_, topped_up) = refilled(Refill { below: 100, ..Refill::default() });
+/// assert!(topped_up.detected);
+/// // One track at most in each of the grid's 8 x 6 cells.
+/// let mut sparse = Refill::default();
+/// sparse.grid.per_cell = 1;
+/// assert!(refilled(sparse).0.added <= 48);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Refill {
+    /// New corners are detected when fewer than this many tracks are live after a frame,
+    /// `0..=max_tracks`; 0 detects only on [`super::Tracker::start`].
+    pub below: usize,
+    /// The detector that starts new tracks.
+    pub detector: Detector,
+    /// The pyramid level detection runs on (0 = full resolution), at most [`MAX_LEVEL`].
+    /// Each level up divides the cost of detection by four, and corners found there start
+    /// tracks at twice, four times... their coordinates; a level too small for the frame
+    /// finds too few corners to fill the tracks.
+    pub level: usize,
+    /// Bucketing of new corners over the frame; live tracks count against their cell.
+    pub grid: Grid,
+    /// New corners keep this far from the frame's edges, px at full resolution.
+    pub border: u16,
+    /// New corners keep this far from live tracks and from each other, px at full resolution
+    /// (a square of this radius, rounded out to the exclusion mask's cells).
+    pub min_distance: u16,
+}
+
+impl Refill {
+    /// The default refill with `detector`.
+    const fn with(detector: Detector) -> Self {
+        Self {
+            below: 80,
+            detector,
+            level: 1,
+            grid: Grid {
+                cols: 8,
+                rows: 6,
+                per_cell: 3,
+            },
+            border: 8,
+            min_distance: 5,
+        }
+    }
+}
+
+impl Default for Refill {
+    /// Below 80 tracks, [`Detector::default`] on pyramid level 1, at most 3 corners in each
+    /// cell of an 8 x 6 grid, 8 px from the edges and 5 px apart.
+    fn default() -> Self {
+        Self::with(Detector::default())
+    }
+}
+
+/// How old tracks are moved back onto the feature they were born on. LK follows a window
+/// from frame to frame, so its sub-pixel errors add up over hundreds of frames; relocation
+/// moves a track to where its birth patch (the appearance gate's 7 x 7 samples) matches best
+/// near its position, found by a few Gauss-Newton steps on the patch, and drops it when
+/// that is too far.
+///
+/// ```
+/// use kestrel::track::{Relocation, TrackerConfig};
+/// # use kestrel::detect::Corner;
+/// # use kestrel::frame::ImageView;
+/// # use kestrel::lk::scratch_len;
+/// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
+/// # const W: usize = 64;
+/// # const H: usize = 48;
+/// # // Smooth blobs, `shift` px to the right.
+/// # let scene = |shift: f32| -> Vec<u8> {
+/// #     (0..W * H).map(|i| {
+/// #         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+/// #         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
+/// #     }).collect()
+/// # };
+/// # // The reports of a tracker of `config` over `frames`.
+/// # let run = |config: TrackerConfig, frames: &[Vec<u8>]| -> Vec<FrameReport> {
+/// #     let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+/// #     let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+/// #     let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 24)];
+/// #     let mut candidates = vec![Corner::default(); 24];
+/// #     let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+/// #         detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+/// #     let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
+/// #     let views: Vec<_> = frames.iter().map(|f| ImageView::packed(f, W, H).unwrap()).collect();
+/// #     let mut reports = vec![tracker.start(views[0]).unwrap()];
+/// #     for pair in views.windows(2) {
+/// #         reports.push(tracker.process(pair[0], pair[1], None).unwrap());
+/// #     }
+/// #     reports
+/// # };
+/// let mut config = TrackerConfig::default();
+/// config.max_tracks = 12;
+/// config.refill.below = 0;
+/// // The scene moves 1.5 px to the right every frame.
+/// let frames: Vec<_> = (0..5).map(|k| scene(1.5 * k as f32)).collect();
+/// let dropped = |relocation: Relocation| -> usize {
+///     let reports = run(TrackerConfig { relocation, ..config }, &frames);
+///     reports.iter().map(|r| r.dropped_relocation).sum()
+/// };
+/// // Every track relocated on every frame: each birth patch is found where LK put its track.
+/// let every_frame = Relocation { every: 1, from_age: 0, ..Relocation::default() };
+/// assert_eq!(dropped(every_frame), 0);
+/// // Asked to find it exactly there, not a fraction of a pixel off, relocation drops them.
+/// assert!(dropped(Relocation { max_distance: 0.0, ..every_frame }) > 0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Relocation {
     /// Relocation period, frames: every this many frames, a track at least
-    /// [`TrackerConfig::relocate_from_age`] frames old is moved to where its birth patch (the
-    /// appearance gate's 7 x 7 samples) matches best near its position, found by a few
-    /// Gauss-Newton steps on the patch. LK follows a window from frame to frame, so its
-    /// sub-pixel errors add up over hundreds of frames; this brings the track back onto the
-    /// feature it was born on. Tracks take turns (by id), so each frame relocates about one
-    /// in this many. A relocation takes two Gauss-Newton steps on most tracks, a fraction of
-    /// following the track for one frame (README, The track manager). 0 turns it off.
-    pub relocate_every: u32,
+    /// [`Relocation::from_age`] frames old is relocated. Tracks take turns (by id), so each
+    /// frame relocates about one in this many. 0 turns relocation off.
+    pub every: u32,
     /// Tracks younger than this many frames are not relocated: they have not drifted yet.
-    pub relocate_from_age: u32,
+    pub from_age: u32,
     /// Relocation limit, px: a track whose birth patch is not found within this distance of
     /// its position (or found only along an edge, where the search does not settle) is
-    /// dropped as no longer looking like its feature. `f32::INFINITY` sets no limit.
-    pub max_relocation: f32,
-    /// Without a caller's prediction, each track's search starts where its latest step's
-    /// displacement predicts (constant velocity) instead of at its position. At a flight
-    /// controller's frame rates the motion changes little between frames, so the prediction
-    /// is usually within a tenth of a pixel and LK converges in one or two iterations.
-    pub constant_velocity: bool,
-    /// Reach of the finest level, px: a track whose latest step landed within this distance
-    /// of its prediction ([`super::Track::prediction_error`]) is searched on pyramid level 0
-    /// only, within twice this from level 1, and so on up to `lk.max_level`; a track without
-    /// a prediction on the whole pyramid. A search that fails, or lands more than twice its
-    /// starting level's reach from its start, is repeated on the whole pyramid. Every level
-    /// skipped saves a template and its iterations. 0 always searches the whole pyramid.
-    pub fine_search: f32,
-    /// Forward-backward schedule, frames: the backward check runs on every track at least
-    /// once in this many frames (tracks take turns by id), and on every step that looks
-    /// doubtful: a track's first step, a step that lands more than
-    /// [`TrackerConfig::fb_doubt`] from its prediction, and one whose search fell back on
-    /// the whole pyramid (searched again from the caller's prediction, or from the track's
-    /// position without one). A step that agrees with its track's own motion is rarely wrong, and
-    /// the way back costs as much as the way forth. 1 checks every step.
-    pub fb_every: u32,
-    /// Distance from its prediction, px, beyond which a step is doubtful and checked
-    /// forward-backward (see [`TrackerConfig::fb_every`]). `f32::INFINITY` leaves only the
-    /// first steps, the fallbacks and the schedule.
-    pub fb_doubt: f32,
-    /// How the tracker's pyramid levels are made (a dense grid that borrows them gets the
-    /// same).
-    pub pyramid: PyramidFilter,
+    /// dropped as no longer looking like its feature. A number >= 0; infinity sets no limit.
+    pub max_distance: f32,
+}
+
+impl Relocation {
+    /// The default relocation.
+    const DEFAULT: Self = Self {
+        every: 16,
+        from_age: 32,
+        max_distance: 0.75,
+    };
+}
+
+impl Default for Relocation {
+    /// Every 16 frames, tracks at least 32 frames old, within 0.75 px.
+    fn default() -> Self {
+        Self::DEFAULT
+    }
 }
 
 /// The least minimum eigenvalue of a new track's window (gradients of about 1.4 grey levels
@@ -213,6 +528,7 @@ impl Default for TrackerConfig {
     /// followed track, and [`BIRTH_MIN_EIGEN`] for a new one. A track whose texture fades (a
     /// climb magnifies the ground, and blurs it) is followed down to a quarter of the texture
     /// it needed to start; its anchor's relocation catches the drift that weak windows bring.
+    /// 100 tracks on a Gaussian pyramid, and each group's defaults.
     fn default() -> Self {
         let lk = LkParams {
             min_eigen_threshold: 5e-4,
@@ -238,6 +554,7 @@ impl TrackerConfig {
     /// use kestrel::track::TrackerConfig;
     /// const SENSOR: TrackerConfig = TrackerConfig::flow_sensor();
     /// assert_eq!((SENSOR.max_tracks, SENSOR.lk.window, SENSOR.pyramid_levels()), (25, 7, 1));
+    /// assert_eq!((SENSOR.refill.below, SENSOR.refill.grid.cols), (20, 5));
     /// ```
     pub const fn flow_sensor() -> Self {
         let lk = LkParams {
@@ -253,47 +570,34 @@ impl TrackerConfig {
             threshold: 10,
             nonmax: true,
         });
+        let defaults = Self::with(lk, detector);
         Self {
             max_tracks: 25,
-            refill_below: 20,
-            grid: Grid {
-                cols: 5,
-                rows: 5,
-                per_cell: 1,
-            },
             pyramid: PyramidFilter::Box,
-            ..Self::with(lk, detector)
+            refill: Refill {
+                below: 20,
+                grid: Grid {
+                    cols: 5,
+                    rows: 5,
+                    per_cell: 1,
+                },
+                ..defaults.refill
+            },
+            ..defaults
         }
     }
 
-    /// The defaults with `lk` and `detector`: the one place the tracker's default counts,
-    /// gates, relocation and search schedule are written, for [`Default`] and the presets.
+    /// The defaults with `lk` and `detector`: the one place the tracker's default count and
+    /// pyramid are written, and each group's defaults taken, for [`Default`] and the presets.
     const fn with(lk: LkParams, detector: Detector) -> Self {
         Self {
             lk,
             max_tracks: 100,
-            refill_below: 80,
-            detector,
-            detect_level: 1,
-            grid: Grid {
-                cols: 8,
-                rows: 6,
-                per_cell: 3,
-            },
-            border: 8,
-            min_distance: 5,
-            fb_threshold: 1.0,
-            max_residual: 12.0,
-            residual_ratio: 3.0,
-            min_correlation: 0.8,
-            relocate_every: 16,
-            relocate_from_age: 32,
-            max_relocation: 0.75,
-            constant_velocity: true,
-            fine_search: 1.0,
-            fb_every: 8,
-            fb_doubt: 0.25,
             pyramid: PyramidFilter::Gaussian,
+            search: Search::DEFAULT,
+            gates: Gates::DEFAULT,
+            refill: Refill::with(detector),
+            relocation: Relocation::DEFAULT,
         }
     }
 
@@ -301,56 +605,70 @@ impl TrackerConfig {
     /// detection level. Size the storage with it (see [`super::tracker_storage_len`]).
     ///
     /// ```
-    /// use kestrel::track::TrackerConfig;
-    /// let config = TrackerConfig { detect_level: 4, ..TrackerConfig::default() };
+    /// use kestrel::track::{Refill, TrackerConfig};
+    /// let config = TrackerConfig {
+    ///     refill: Refill { level: 4, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// assert_eq!(config.pyramid_levels(), 4);
     /// ```
     pub const fn pyramid_levels(&self) -> usize {
-        if self.detect_level > self.lk.max_level {
-            self.detect_level
+        if self.refill.level > self.lk.max_level {
+            self.refill.level
         } else {
             self.lk.max_level
         }
     }
 
     /// Checks every setting for a tracker of capacity `capacity`; a refusal names the field
-    /// as the caller writes it (`"max_tracks"`, `"lk.window"`, `"grid.cols"`).
+    /// by its path, as the caller writes it (`"max_tracks"`, `"lk.window"`,
+    /// `"refill.grid.cols"`, `"gates.fb_threshold"`).
     pub(super) fn validate(&self, capacity: usize) -> Result<Checked, ConfigError> {
+        let Self {
+            lk: lk_params,
+            max_tracks,
+            pyramid: _,
+            search,
+            gates,
+            refill,
+            relocation,
+        } = *self;
         let lk_refused = |e: ConfigError| e.nested(&LK_PATHS);
-        let lk = LucasKanade::new(self.lk).map_err(lk_refused)?;
-        if self.max_tracks == 0 || self.max_tracks > capacity {
+        let lk = LucasKanade::new(lk_params).map_err(lk_refused)?;
+        if max_tracks == 0 || max_tracks > capacity {
             let bound = Bound::Range {
                 min: 1,
                 max: bound_number(capacity),
             };
             return Err(ConfigError::new("max_tracks", bound));
         }
-        if self.refill_below > self.max_tracks {
-            let bound = Bound::AtMost(bound_number(self.max_tracks));
-            return Err(ConfigError::new("refill_below", bound));
+        if refill.below > max_tracks {
+            let bound = Bound::AtMost(bound_number(max_tracks));
+            return Err(ConfigError::new("refill.below", bound));
         }
-        if self.detect_level > MAX_LEVEL {
+        if refill.level > MAX_LEVEL {
             let bound = Bound::AtMost(bound_number(MAX_LEVEL));
-            return Err(ConfigError::new("detect_level", bound));
+            return Err(ConfigError::new("refill.level", bound));
         }
-        self.grid
+        refill
+            .grid
             .validate()
-            .map_err(|e| e.nested(&["grid.cols", "grid.rows"]))?;
-        if let Detector::ShiTomasi(shi_tomasi) = &self.detector {
-            shi_tomasi
-                .validate()
-                .map_err(|e| e.nested(&["detector.block", "detector.quality_level"]))?;
+            .map_err(|e| e.nested(&["refill.grid.cols", "refill.grid.rows"]))?;
+        if let Detector::ShiTomasi(shi_tomasi) = &refill.detector {
+            shi_tomasi.validate().map_err(|e| {
+                e.nested(&["refill.detector.block", "refill.detector.quality_level"])
+            })?;
         }
         // The gates: a number >= 0, infinity turning the gate off.
         let refused = |field| ConfigError::new(field, Bound::NonNegative);
-        let fb_limit_sq = gate(self.fb_threshold)
-            .ok_or(refused("fb_threshold"))?
+        let fb_limit_sq = gate(gates.fb_threshold)
+            .ok_or(refused("gates.fb_threshold"))?
             .map(squared_bits);
-        let max_residual = gate(self.max_residual).ok_or(refused("max_residual"))?;
-        let residual_ratio = gate(self.residual_ratio).ok_or(refused("residual_ratio"))?;
-        let min_correlation = match self.min_correlation {
+        let max_residual = gate(gates.max_residual).ok_or(refused("gates.max_residual"))?;
+        let residual_ratio = gate(gates.residual_ratio).ok_or(refused("gates.residual_ratio"))?;
+        let min_correlation = match gates.min_correlation {
             c if c.is_nan() || c > 1.0 => {
-                return Err(ConfigError::new("min_correlation", Bound::AtMost(1)))
+                return Err(ConfigError::new("gates.min_correlation", Bound::AtMost(1)))
             }
             c if c <= -1.0 => None,
             c => Some(c),
@@ -358,27 +676,27 @@ impl TrackerConfig {
         let texture_check = LucasKanade::new(LkParams {
             max_level: 0,
             max_iterations: 1,
-            min_eigen_threshold: self.lk.min_eigen_threshold.max(BIRTH_MIN_EIGEN),
-            ..self.lk
+            min_eigen_threshold: lk_params.min_eigen_threshold.max(BIRTH_MIN_EIGEN),
+            ..lk_params
         })
         .map_err(lk_refused)?;
-        let max_shift_sq = gate(self.max_relocation)
-            .ok_or(refused("max_relocation"))?
+        let max_shift_sq = gate(relocation.max_distance)
+            .ok_or(refused("relocation.max_distance"))?
             .map_or(i64::MAX, squared_bits);
-        let fine_search = match gate(self.fine_search).ok_or(refused("fine_search"))? {
+        let fine_search = match gate(search.fine_reach).ok_or(refused("search.fine_reach"))? {
             Some(reach) if reach == Q16::ZERO => None,
             Some(reach) => Some(reach),
             None => Some(Q16::MAX),
         };
-        if self.fb_every == 0 {
-            return Err(ConfigError::new("fb_every", Bound::AtLeast(1)));
+        if gates.fb_every == 0 {
+            return Err(ConfigError::new("gates.fb_every", Bound::AtLeast(1)));
         }
-        let fb_doubt_sq = gate(self.fb_doubt)
-            .ok_or(refused("fb_doubt"))?
+        let fb_doubt_sq = gate(gates.fb_doubt)
+            .ok_or(refused("gates.fb_doubt"))?
             .map_or(i64::MAX, squared_bits);
-        let relocate = (self.relocate_every > 0).then_some(Relocate {
-            every: self.relocate_every,
-            from_age: self.relocate_from_age,
+        let relocate = (relocation.every > 0).then_some(Relocate {
+            every: relocation.every,
+            from_age: relocation.from_age,
             max_shift_sq,
         });
         Ok(Checked {
@@ -389,9 +707,9 @@ impl TrackerConfig {
             max_residual,
             residual_ratio,
             min_correlation,
-            constant_velocity: self.constant_velocity,
+            constant_velocity: search.constant_velocity,
             fine_search,
-            fb_every: self.fb_every,
+            fb_every: gates.fb_every,
             fb_doubt_sq,
         })
     }
@@ -480,24 +798,33 @@ mod tests {
 
     #[test]
     fn relocation_is_off_at_period_0_and_refuses_a_nan_limit() {
-        let off = TrackerConfig {
-            relocate_every: 0,
+        let relocation = |every, max_distance| TrackerConfig {
+            relocation: Relocation {
+                every,
+                max_distance,
+                ..Relocation::default()
+            },
             ..TrackerConfig::default()
         };
-        assert!(off.validate(100).unwrap().relocate.is_none());
-        let unlimited = TrackerConfig {
-            max_relocation: f32::INFINITY,
-            ..TrackerConfig::default()
-        };
-        let relocate = unlimited.validate(100).unwrap().relocate.unwrap();
-        assert_eq!(relocate.max_shift_sq, i64::MAX);
-        let nan = TrackerConfig {
-            max_relocation: f32::NAN,
-            ..TrackerConfig::default()
-        };
+        assert!(relocation(0, 0.75)
+            .validate(100)
+            .unwrap()
+            .relocate
+            .is_none());
+        let unlimited = relocation(16, f32::INFINITY).validate(100).unwrap();
+        assert_eq!(unlimited.relocate.unwrap().max_shift_sq, i64::MAX);
         assert_eq!(
-            nan.validate(100).unwrap_err(),
-            ConfigError::new("max_relocation", Bound::NonNegative)
+            relocation(16, f32::NAN).validate(100).unwrap_err(),
+            ConfigError::new("relocation.max_distance", Bound::NonNegative)
         );
+    }
+
+    #[test]
+    fn the_groups_defaults_are_the_trackers() {
+        let config = TrackerConfig::default();
+        assert_eq!(config.search, Search::default());
+        assert_eq!(config.gates, Gates::default());
+        assert_eq!(config.refill, Refill::default());
+        assert_eq!(config.relocation, Relocation::default());
     }
 }

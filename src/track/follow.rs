@@ -206,7 +206,7 @@ impl Follow<'_, '_> {
     }
 
     /// Where `track`'s search starts: the caller's prediction, else its latest displacement
-    /// repeated ([`super::TrackerConfig::constant_velocity`]) once it has one.
+    /// repeated ([`super::Search::constant_velocity`]) once it has one.
     fn guess(&self, track: &Track) -> Option<Point> {
         match self.predict {
             Some(predict) => Some(predict(track.position)),
@@ -394,7 +394,7 @@ impl Follow<'_, '_> {
     }
 
     /// Whether the forward step `fwd` of `track` gets the backward check: when its turn comes
-    /// (see [`super::TrackerConfig::fb_every`]), or when it looks doubtful.
+    /// (see [`super::Gates::fb_every`]), or when it looks doubtful.
     fn backward_due(&self, track: &Track, fwd: &Forward) -> bool {
         let checked = self.checked;
         let turn = track

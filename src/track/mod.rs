@@ -7,18 +7,18 @@
 //! 2. follows every live track with LK from where it should be: the caller's prediction when
 //!    there is one (a gyro), else its own last displacement repeated (new tracks: the median
 //!    of the others'), on the finest pyramid level its last prediction error calls for
-//!    ([`TrackerConfig::fine_search`]), again on the whole pyramid when that search fails;
+//!    ([`Search::fine_reach`]), again on the whole pyramid when that search fails;
 //! 3. drops a track that LK lost, whose residual stands out (above
-//!    [`TrackerConfig::max_residual`], or [`TrackerConfig::residual_ratio`] times the frame's
+//!    [`Gates::max_residual`], or [`Gates::residual_ratio`] times the frame's
 //!    median), that no longer looks like the feature it was born on
-//!    ([`TrackerConfig::min_correlation`]), or whose way back misses its start by more than
-//!    [`TrackerConfig::fb_threshold`]: the cheap gates first, the backward LK last, run on
-//!    every track once in [`TrackerConfig::fb_every`] frames and on every doubtful step;
-//!    every [`TrackerConfig::relocate_every`] frames, a track that is old enough is first moved
+//!    ([`Gates::min_correlation`]), or whose way back misses its start by more than
+//!    [`Gates::fb_threshold`]: the cheap gates first, the backward LK last, run on
+//!    every track once in [`Gates::fb_every`] frames and on every doubtful step;
+//!    every [`Relocation::every`] frames, a track that is old enough is first moved
 //!    to where its birth appearance matches best nearby, undoing LK's slow drift, or dropped
-//!    when that is farther than [`TrackerConfig::max_relocation`];
-//! 4. when fewer than [`TrackerConfig::refill_below`] tracks are left, detects corners on
-//!    pyramid level [`TrackerConfig::detect_level`] away from the live tracks, spreads them
+//!    when that is farther than [`Relocation::max_distance`];
+//! 4. when fewer than [`Refill::below`] tracks are left, detects corners on
+//!    pyramid level [`Refill::level`] away from the live tracks, spreads them
 //!    with a [`Grid`](crate::detect::Grid), and starts new tracks up to
 //!    [`TrackerConfig::max_tracks`] where LK accepts the window.
 //!
@@ -30,12 +30,16 @@
 //! use kestrel::frame::ImageView;
 //! use kestrel::lk::scratch_len;
 //! use kestrel::track::{
-//!     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig,
+//!     detect_scratch_len, tracker_storage_len, Refill, Tracker, TrackerBuffers, TrackerConfig,
 //! };
 //!
 //! const W: usize = 64;
 //! const H: usize = 48;
-//! let config = TrackerConfig { max_tracks: 12, refill_below: 8, ..TrackerConfig::default() };
+//! let config = TrackerConfig {
+//!     max_tracks: 12,
+//!     refill: Refill { below: 8, ..Refill::default() },
+//!     ..TrackerConfig::default()
+//! };
 //!
 //! // Firmware would make these `static`.
 //! let mut storage = [0u8; tracker_storage_len(W, H, 3)];
@@ -82,7 +86,7 @@ mod refill;
 mod turn;
 
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
-pub use config::{Detector, TrackerConfig, BIRTH_MIN_EIGEN};
+pub use config::{Detector, Gates, Refill, Relocation, Search, TrackerConfig, BIRTH_MIN_EIGEN};
 
 use crate::config_error::bound_number;
 use crate::frame::{ImageView, MAX_DIMENSION};
@@ -101,7 +105,7 @@ use refill::DetectBuffers;
 /// One tracked feature.
 ///
 /// ```
-/// use kestrel::track::{Tracker, TrackerConfig};
+/// use kestrel::track::{Tracker, Refill, TrackerConfig};
 /// use kestrel::Point;
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
 /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
@@ -119,7 +123,11 @@ use refill::DetectBuffers;
 /// #         (128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin()) as u8
 /// #     })
 /// # };
-/// let config = TrackerConfig { max_tracks: 12, refill_below: 8, ..TrackerConfig::default() };
+/// let config = TrackerConfig {
+///     max_tracks: 12,
+///     refill: Refill { below: 8, ..Refill::default() },
+///     ..TrackerConfig::default()
+/// };
 /// let mut tracker = Tracker::<12>::new(config, W, H, buffers).unwrap();
 /// // Smooth blobs, then the same blobs 1.5 px further right.
 /// let (a, b) = (scene(0.0), scene(1.5));
@@ -156,11 +164,11 @@ pub struct Track {
     pub born: u32,
     /// Displacement of the latest step, px (zero on its first frame). Without a caller's
     /// prediction, the next step's search starts this far from the track's position
-    /// ([`TrackerConfig::constant_velocity`]).
+    /// ([`Search::constant_velocity`]).
     pub velocity: Point,
     /// How far the latest step landed from where its search started (its prediction, or its
     /// old position without one), px; [`Q16::MAX`] on its first frame. It decides how coarse
-    /// a pyramid level the next search needs ([`TrackerConfig::fine_search`]).
+    /// a pyramid level the next search needs ([`Search::fine_reach`]).
     pub prediction_error: Q16,
 }
 
@@ -183,10 +191,10 @@ pub struct FrameReport {
     /// Tracks dropped by the residual gate.
     pub dropped_residual: usize,
     /// Tracks dropped because they no longer correlate with their birth patch
-    /// ([`TrackerConfig::min_correlation`]).
+    /// ([`Gates::min_correlation`]).
     pub dropped_appearance: usize,
     /// Tracks dropped because their birth patch was not found near them when they were due
-    /// for relocation ([`TrackerConfig::max_relocation`]).
+    /// for relocation ([`Relocation::max_distance`]).
     pub dropped_relocation: usize,
     /// Tracks that left the frame.
     pub dropped_out_of_frame: usize,
@@ -221,7 +229,7 @@ impl FrameReport {
 ///
 /// ```
 /// use kestrel::frame::ImageView;
-/// use kestrel::track::{Tracker, TrackerConfig, TrackerError};
+/// use kestrel::track::{Tracker, Refill, TrackerConfig, TrackerError};
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
 /// # use kestrel::{detect::Corner, lk::scratch_len};
 /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
@@ -230,7 +238,11 @@ impl FrameReport {
 /// # let mut candidates = [Corner::default(); 4];
 /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
 /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-/// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+/// let config = TrackerConfig {
+///     max_tracks: 4,
+///     refill: Refill { below: 4, ..Refill::default() },
+///     ..TrackerConfig::default()
+/// };
 /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
 /// let (small, large) = ([0u8; 16 * 16], [0u8; 32 * 32]);
 /// let (small, frame) = (ImageView::packed(&small, 16, 16).unwrap(), ImageView::packed(&large, 32, 32).unwrap());
@@ -288,7 +300,7 @@ struct Previous {
 /// A step of [`Tracker::process_observed`], reported as it ends.
 ///
 /// ```
-/// use kestrel::track::{TrackerStage, Tracker, TrackerConfig};
+/// use kestrel::track::{TrackerStage, Tracker, Refill, TrackerConfig};
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
 /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
 /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
@@ -298,7 +310,11 @@ struct Previous {
 /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
 /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
 /// // A tracker that detects corners only when it starts: its frames never refill.
-/// let config = TrackerConfig { max_tracks: 4, refill_below: 0, ..TrackerConfig::default() };
+/// let config = TrackerConfig {
+///     max_tracks: 4,
+///     refill: Refill { below: 0, ..Refill::default() },
+///     ..TrackerConfig::default()
+/// };
 /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
 /// let flat = [100u8; 32 * 32];
 /// let frame = ImageView::packed(&flat, 32, 32).unwrap();
@@ -458,7 +474,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// What comes after the last stage (remembering the frame) is a few hundred instructions.
     ///
     /// ```
-    /// use kestrel::track::{TrackerStage, Tracker, TrackerConfig};
+    /// use kestrel::track::{TrackerStage, Tracker, Refill, TrackerConfig};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
     /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
@@ -467,7 +483,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 4];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let config = TrackerConfig {
+    ///     max_tracks: 4,
+    ///     refill: Refill { below: 4, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
     /// let flat = [100u8; 32 * 32];
     /// let frame = ImageView::packed(&flat, 32, 32).unwrap();
@@ -528,7 +548,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             .map_err(lk_refusal)?;
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
-        if self.set.tracks.len() < self.config.refill_below {
+        if self.set.tracks.len() < self.config.refill.below {
             self.refill(next, half, &mut report)?;
             stage_ended(TrackerStage::Refill);
         }
@@ -547,7 +567,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// [`TrackerError::NotThePreviousFrame`].
     ///
     /// ```
-    /// use kestrel::track::{Tracker, TrackerConfig, TrackerError};
+    /// use kestrel::track::{Tracker, Refill, TrackerConfig, TrackerError};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
     /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
@@ -556,7 +576,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 4];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let config = TrackerConfig {
+    ///     max_tracks: 4,
+    ///     refill: Refill { below: 4, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
     /// let (dark, bright) = ([90u8; 32 * 32], [110u8; 32 * 32]);
     /// let a = ImageView::packed(&dark, 32, 32).unwrap();
@@ -599,7 +623,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// The live tracks, oldest first.
     ///
     /// ```
-    /// use kestrel::track::{Tracker, TrackerConfig};
+    /// use kestrel::track::{Tracker, Refill, TrackerConfig};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
     /// # use kestrel::{detect::Corner, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
@@ -608,7 +632,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 4];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// let config = TrackerConfig {
+    ///     max_tracks: 4,
+    ///     refill: Refill { below: 4, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// let tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
     /// assert!(tracker.tracks().is_empty());
     /// ```
@@ -623,7 +651,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     ///
     /// ```
     /// use heapless::Vec;
-    /// use kestrel::track::{Tracker, TrackerConfig};
+    /// use kestrel::track::{Tracker, Refill, TrackerConfig};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
     /// # use kestrel::{detect::Corner, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(64, 64, 3)];
@@ -641,7 +669,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// });
     /// let first = ImageView::new(&canvas, 64, 64, 66).unwrap();
     /// let second = ImageView::new(&canvas[2..], 64, 64, 66).unwrap();
-    /// let config = TrackerConfig { max_tracks: 8, refill_below: 8, ..TrackerConfig::default() };
+    /// let config = TrackerConfig {
+    ///     max_tracks: 8,
+    ///     refill: Refill { below: 8, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// let mut tracker = Tracker::<8>::new(config, 64, 64, buffers).unwrap();
     /// tracker.start(first).unwrap();
     /// let mut pairs: Vec<(Point, Point), 8> = Vec::new();
@@ -668,7 +700,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// before the first.
     ///
     /// ```
-    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Tracker, TrackerBuffers, TrackerConfig};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Refill, Tracker, TrackerBuffers, TrackerConfig};
     /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
     /// # let mut lk_scratch = [0i16; scratch_len(21)];
@@ -676,7 +708,11 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 4];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// # let config = TrackerConfig { max_tracks: 4, refill_below: 4, ..TrackerConfig::default() };
+    /// # let config = TrackerConfig {
+    /// #     max_tracks: 4,
+    /// #     refill: Refill { below: 4, ..Refill::default() },
+    /// #     ..TrackerConfig::default()
+    /// # };
     /// let mut tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
     /// assert_eq!(tracker.frame_index(), None);
     /// let flat = [100u8; 32 * 32];
@@ -692,7 +728,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// The configuration the tracker was made with.
     ///
     /// ```
-    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Tracker, TrackerBuffers, TrackerConfig};
+    /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Refill, Tracker, TrackerBuffers, TrackerConfig};
     /// # use kestrel::{detect::Corner, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
     /// # let mut lk_scratch = [0i16; scratch_len(21)];
@@ -700,9 +736,13 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 4];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// let config = TrackerConfig { max_tracks: 4, refill_below: 2, ..TrackerConfig::default() };
+    /// let config = TrackerConfig {
+    ///     max_tracks: 4,
+    ///     refill: Refill { below: 2, ..Refill::default() },
+    ///     ..TrackerConfig::default()
+    /// };
     /// let tracker = Tracker::<4>::new(config, 32, 32, buffers).unwrap();
-    /// assert_eq!(tracker.config().refill_below, 2);
+    /// assert_eq!(tracker.config().refill.below, 2);
     /// ```
     pub fn config(&self) -> &TrackerConfig {
         &self.config
@@ -822,7 +862,7 @@ fn start_tracks(
     } = buffers::split_storage(buffers.storage, size.0, size.1, levels);
     let storage = if half == 0 { first } else { second };
     let pyramid = Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Config)?;
-    let Some(level_image) = pyramid.level(config.detect_level) else {
+    let Some(level_image) = pyramid.level(config.refill.level) else {
         return Ok(());
     };
     let detect = DetectBuffers {
@@ -830,7 +870,7 @@ fn start_tracks(
         scratch: buffers.detect_scratch,
         candidates: buffers.candidates,
     };
-    let corners = refill::new_corners(config, &level_image, size, live, detect)
+    let corners = refill::new_corners(&config.refill, &level_image, size, live, detect)
         .map_err(TrackerError::Config)?;
     report.detected = true;
     let mut started = 0;
@@ -915,8 +955,8 @@ fn check_buffers(
             config.max_tracks,
         ));
     }
-    let needs_scratch = matches!(config.detector, Detector::ShiTomasi(_));
-    let scratch = detect_scratch_len(width, config.detect_level, candidates);
+    let needs_scratch = matches!(config.refill.detector, Detector::ShiTomasi(_));
+    let scratch = detect_scratch_len(width, config.refill.level, candidates);
     if needs_scratch && buffers.detect_scratch.len() < scratch {
         return Err(ConfigError::min_len("buffers.detect_scratch", scratch));
     }

@@ -1,7 +1,7 @@
 //! Finding where to start new tracks: detect on one pyramid level away from the live tracks,
 //! space the new corners out, and bucket them over the frame.
 
-use super::config::{Detector, TrackerConfig};
+use super::config::{Detector, Refill};
 use crate::detect::{Corner, ExclusionMask, Region};
 use crate::frame::ImageView;
 use crate::q16::Point;
@@ -17,31 +17,31 @@ pub(super) struct DetectBuffers<'b> {
     pub candidates: &'b mut [Corner],
 }
 
-/// Finds new corners on `level_image`, pyramid level `config.detect_level` of a
-/// `width` x `height` frame, at least `config.min_distance` px from every position in `live`
-/// and from each other, at most `config.grid.per_cell` per cell counting `live`.
+/// Finds new corners on `level_image`, pyramid level `refill.level` of a
+/// `width` x `height` frame, at least `refill.min_distance` px from every position in `live`
+/// and from each other, at most `refill.grid.per_cell` per cell counting `live`.
 ///
 /// Returns the corners, strongest first, in full-resolution coordinates: a prefix of
 /// `buffers.candidates`.
 pub(super) fn new_corners<'b>(
-    config: &TrackerConfig,
+    refill: &Refill,
     level_image: &ImageView<'_>,
     (width, height): (usize, usize),
     live: &[Point],
     buffers: DetectBuffers<'b>,
 ) -> Result<&'b [Corner], ConfigError> {
-    let level = config.detect_level;
+    let level = refill.level;
     // Round the radius up so that the spacing is at least min_distance at full resolution.
-    let radius = config.min_distance.div_ceil(1 << level);
+    let radius = refill.min_distance.div_ceil(1 << level);
     let mut mask = ExclusionMask::new(level_image.width(), level_image.height());
     for &p in live {
         mask.exclude_around(at_level(p, level), radius);
     }
     // Keep new corners far enough from the edge that most of their window sees the frame:
     // LK repeats the edge pixels beyond it, a pattern that does not move with the scene.
-    let border = usize::from(config.border).div_ceil(1 << level);
+    let border = usize::from(refill.border).div_ceil(1 << level);
     let region = Region::full(level_image).clip(level_image.width(), level_image.height(), border);
-    let found = match &config.detector {
+    let found = match &refill.detector {
         Detector::Fast(fast) => fast.detect(
             level_image,
             region,
@@ -68,7 +68,7 @@ pub(super) fn new_corners<'b>(
     for corner in spaced.iter_mut() {
         corner.position = at_full_resolution(corner.position, level);
     }
-    let selected = config.grid.select(width, height, spaced, live)?;
+    let selected = refill.grid.select(width, height, spaced, live)?;
     debug_assert!(selected <= spaced.len());
     Ok(spaced.get(..selected).unwrap_or(&[]))
 }

@@ -15,8 +15,8 @@ use kestrel::detect::{Fast, Grid, ShiTomasi};
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::PyramidFilter;
 use kestrel::track::{
-    detect_scratch_len, tracker_storage_len, Detector, FrameReport, Track, Tracker, TrackerBuffers,
-    TrackerConfig, TrackerError,
+    detect_scratch_len, tracker_storage_len, Detector, FrameReport, Gates, Refill, Relocation,
+    Search, Track, Tracker, TrackerBuffers, TrackerConfig, TrackerError,
 };
 use kestrel::{ConfigError, Point, Q16};
 use std::collections::HashSet;
@@ -108,7 +108,7 @@ pub fn run(data: &[u8]) {
     let lk_len = scratch_len(config.lk.window.min(63));
     let mut lk_scratch = vec![0i16; with_delta(lk_len, input.lk_delta)];
     let candidates = usize::from(input.candidates % 40);
-    let detect_len = detect_scratch_len(w, config.detect_level.min(7), candidates);
+    let detect_len = detect_scratch_len(w, config.refill.level.min(7), candidates);
     let mut detect_scratch = vec![0i32; with_delta(detect_len, input.detect_delta)];
     let mut corners = vec![Corner::default(); candidates];
     let buffers = TrackerBuffers {
@@ -156,34 +156,43 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
             c.plain,
         ),
         max_tracks: usize::from(c.max_tracks % 20),
-        refill_below: usize::from(c.refill_below % 20),
-        detector,
-        detect_level: usize::from(c.detect_level % 10),
-        grid: Grid {
-            cols: usize::from(c.grid.0 % 36),
-            rows: usize::from(c.grid.1 % 36),
-            per_cell: c.grid.2,
+        // The quotients the moduli ignore, so the corpus keeps its meaning: the search from
+        // predictions (fine reach 0-1.5 px, 0 = whole pyramid).
+        search: Search {
+            constant_velocity: (c.block / 10) % 2 == 0,
+            fine_reach: f32::from((c.block / 20) % 4) * 0.5,
         },
-        border: c.border,
-        min_distance: c.min_distance,
-        fb_threshold: c.fb_threshold,
-        max_residual: c.max_residual,
-        residual_ratio: c.residual_ratio,
-        min_correlation: c.min_correlation,
-        // The quotients the moduli above ignore, so the corpus keeps its meaning: relocation
-        // every 0-12 frames from age 0-12, limits of 0-6 px in quarters, and NaN at the top.
-        relocate_every: u32::from(c.max_tracks / 20),
-        relocate_from_age: u32::from(c.refill_below / 20),
-        max_relocation: match c.detect_level / 10 {
-            25 => f32::NAN,
-            quarters => f32::from(quarters) * 0.25,
+        gates: Gates {
+            fb_threshold: c.fb_threshold,
+            // More quotients: the forward-backward schedule (every 1-8 frames, doubt 0-1.75 px).
+            fb_every: 1 + u32::from(c.grid.0 / 36) % 8,
+            fb_doubt: f32::from((c.grid.1 / 36) % 8) * 0.25,
+            max_residual: c.max_residual,
+            residual_ratio: c.residual_ratio,
+            min_correlation: c.min_correlation,
         },
-        // More quotients: the search from predictions (fine reach 0-1.5 px, 0 = whole
-        // pyramid) and the forward-backward schedule (every 1-8 frames, doubt 0-1.75 px).
-        constant_velocity: (c.block / 10) % 2 == 0,
-        fine_search: f32::from((c.block / 20) % 4) * 0.5,
-        fb_every: 1 + u32::from(c.grid.0 / 36) % 8,
-        fb_doubt: f32::from((c.grid.1 / 36) % 8) * 0.25,
+        refill: Refill {
+            below: usize::from(c.refill_below % 20),
+            detector,
+            level: usize::from(c.detect_level % 10),
+            grid: Grid {
+                cols: usize::from(c.grid.0 % 36),
+                rows: usize::from(c.grid.1 % 36),
+                per_cell: c.grid.2,
+            },
+            border: c.border,
+            min_distance: c.min_distance,
+        },
+        // More quotients: relocation every 0-12 frames from age 0-12, limits of 0-6 px in
+        // quarters, and NaN at the top.
+        relocation: Relocation {
+            every: u32::from(c.max_tracks / 20),
+            from_age: u32::from(c.refill_below / 20),
+            max_distance: match c.detect_level / 10 {
+                25 => f32::NAN,
+                quarters => f32::from(quarters) * 0.25,
+            },
+        },
         pyramid: if (c.block / 80) % 2 == 0 {
             PyramidFilter::Gaussian
         } else {
@@ -202,9 +211,9 @@ fn check_refusal(e: ConfigError, input: &Input, config: &TrackerConfig) {
             assert!(usize::from(input.candidates % 40) < config.max_tracks)
         }
         "max_tracks" => assert!(config.max_tracks == 0 || config.max_tracks > N),
-        "refill_below" => assert!(config.refill_below > config.max_tracks),
-        "max_relocation" => assert!(config.max_relocation.is_nan()),
-        "fine_search" | "fb_every" => {
+        "refill.below" => assert!(config.refill.below > config.max_tracks),
+        "relocation.max_distance" => assert!(config.relocation.max_distance.is_nan()),
+        "search.fine_reach" | "gates.fb_every" => {
             panic!("a valid search or schedule was refused: {config:?}")
         }
         "width" | "height" => panic!("a 1..=64 px frame was refused"),
@@ -334,7 +343,7 @@ impl Model<'_, '_> {
         assert_eq!(report.live, report.tracked + report.added, "{report:?}");
         assert!(report.added == 0 || report.detected);
         if !start {
-            assert_eq!(report.detected, report.tracked < config.refill_below);
+            assert_eq!(report.detected, report.tracked < config.refill.below);
         }
         let mut ids = HashSet::new();
         for (i, t) in tracks.iter().enumerate() {

@@ -8,8 +8,8 @@ use kestrel::detect::{Grid, MAX_CELLS_PER_SIDE};
 use kestrel::frame::ImageError;
 use kestrel::lk::{scratch_len, Illumination, LkParams, TemplatePlacement};
 use kestrel::track::{
-    detect_scratch_len, tracker_storage_len, FrameReport, Track, Tracker, TrackerBuffers,
-    TrackerConfig, TrackerError,
+    detect_scratch_len, tracker_storage_len, FrameReport, Gates, Refill, Relocation, Track,
+    Tracker, TrackerBuffers, TrackerConfig, TrackerError,
 };
 use kestrel::ConfigError;
 
@@ -97,14 +97,21 @@ pub struct TrackerSettings {
 impl TrackerSettings {
     /// `config` with every given setting in place of its own.
     pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
+        let (gates, relocation) = (config.gates, config.relocation);
         TrackerConfig {
             lk: self.lk.apply(config.lk),
-            fb_threshold: self.fb_threshold.unwrap_or(config.fb_threshold),
-            max_residual: self.max_residual.unwrap_or(config.max_residual),
-            min_correlation: self.min_correlation.unwrap_or(config.min_correlation),
-            residual_ratio: self.residual_ratio.unwrap_or(config.residual_ratio),
-            max_relocation: self.max_relocation.unwrap_or(config.max_relocation),
-            relocate_every: self.relocate_every.unwrap_or(config.relocate_every),
+            gates: Gates {
+                fb_threshold: self.fb_threshold.unwrap_or(gates.fb_threshold),
+                max_residual: self.max_residual.unwrap_or(gates.max_residual),
+                min_correlation: self.min_correlation.unwrap_or(gates.min_correlation),
+                residual_ratio: self.residual_ratio.unwrap_or(gates.residual_ratio),
+                ..gates
+            },
+            relocation: Relocation {
+                max_distance: self.max_relocation.unwrap_or(relocation.max_distance),
+                every: self.relocate_every.unwrap_or(relocation.every),
+                ..relocation
+            },
             ..config
         }
     }
@@ -160,7 +167,7 @@ impl Preset {
     /// ```
     /// use host_sim::tracking::Preset;
     /// assert_eq!(Preset::FlowSensor.config(None).max_tracks, 25);
-    /// assert_eq!(Preset::FlowSensor.config(Some(40)).refill_below, 32);
+    /// assert_eq!(Preset::FlowSensor.config(Some(40)).refill.below, 32);
     /// ```
     pub fn config(self, max_tracks: Option<usize>) -> TrackerConfig {
         let preset = match self {
@@ -169,7 +176,10 @@ impl Preset {
         match max_tracks {
             Some(n) => TrackerConfig {
                 max_tracks: n,
-                refill_below: n * 4 / 5,
+                refill: Refill {
+                    below: n * 4 / 5,
+                    ..preset.refill
+                },
                 ..preset
             },
             None => preset,
@@ -187,8 +197,8 @@ impl Preset {
 /// ```
 /// use host_sim::tracking::config_for;
 /// let config = config_for(320, 240, 100);
-/// assert_eq!((config.max_tracks, config.refill_below), (100, 90));
-/// assert_eq!((config.grid.cols, config.grid.rows), (8, 6));
+/// assert_eq!((config.max_tracks, config.refill.below), (100, 90));
+/// assert_eq!((config.refill.grid.cols, config.refill.grid.rows), (8, 6));
 /// ```
 pub fn config_for(width: usize, height: usize, max_tracks: usize) -> TrackerConfig {
     let cells = max_tracks.div_ceil(2).max(1) as f64;
@@ -198,11 +208,14 @@ pub fn config_for(width: usize, height: usize, max_tracks: usize) -> TrackerConf
     let rows = side(cells / cols as f64);
     TrackerConfig {
         max_tracks,
-        refill_below: max_tracks * 9 / 10,
-        grid: Grid {
-            cols,
-            rows,
-            per_cell: PER_CELL,
+        refill: Refill {
+            below: max_tracks * 9 / 10,
+            grid: Grid {
+                cols,
+                rows,
+                per_cell: PER_CELL,
+            },
+            ..Refill::default()
         },
         ..TrackerConfig::default()
     }
@@ -349,7 +362,7 @@ impl HostBuffers {
         Self {
             storage: vec![0; tracker_storage_len(width, height, config.pyramid_levels())],
             lk_scratch: vec![0; scratch_len(config.lk.window)],
-            detect_scratch: vec![0; detect_scratch_len(width, config.detect_level, candidates)],
+            detect_scratch: vec![0; detect_scratch_len(width, config.refill.level, candidates)],
             candidates: vec![Corner::default(); candidates],
         }
     }
@@ -373,7 +386,7 @@ mod tests {
     #[test]
     fn grids_follow_the_track_count_and_the_frame_shape() {
         let grid = |w, h, n| {
-            let g = config_for(w, h, n).grid;
+            let g = config_for(w, h, n).refill.grid;
             (g.cols, g.rows)
         };
         assert_eq!(grid(160, 120, 100), (8, 6));
@@ -382,7 +395,9 @@ mod tests {
         assert_eq!(grid(320, 240, 1), (1, 1));
         assert_eq!(grid(320, 240, MAX_TRACKS), (26, 19));
         let config = config_for(320, 240, MAX_TRACKS);
-        let room = config.grid.cols * config.grid.rows * usize::from(config.grid.per_cell);
+        let room = config.refill.grid.cols
+            * config.refill.grid.rows
+            * usize::from(config.refill.grid.per_cell);
         assert!(room >= MAX_TRACKS);
     }
 

@@ -6,9 +6,9 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use host_sim::synth::{grid_points, pair, Homography, SceneSpec};
 use host_sim::Frame;
-use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, Illumination, LkParams, LucasKanade, PointTrack};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::ImageView;
 use kestrel::Point;
 
 const LEVELS: usize = 3;

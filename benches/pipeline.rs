@@ -12,9 +12,9 @@ use host_sim::Frame;
 use kestrel::dense::DenseParams;
 use kestrel::detect::{fast_scratch_len, shi_tomasi_scratch_len, Corner, Fast, Region, ShiTomasi};
 use kestrel::ego::{ModelKind, Ransac, RansacParams};
-use kestrel::frame::ImageView;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::track::Tracker;
+use kestrel::ImageView;
 
 const WIDTH: usize = 160;
 const HEIGHT: usize = 120;

@@ -4,7 +4,7 @@
 ///
 /// Every constructor and settings check of the library returns it (the LK, detector, grid,
 /// dense, motion, outline, camera and RANSAC settings, [`Tracker::new`](crate::track::Tracker::new),
-/// [`FlowSensor::new`](crate::sensor::FlowSensor::new), [`Pyramid::build`](crate::Pyramid::build)),
+/// [`FlowSensor::new`](crate::sensor::FlowSensor::new), [`Pyramid::build`](crate::pyramid::Pyramid::build)),
 /// and so does every function that takes a buffer the caller sizes by one of the library's
 /// `const fn`s (storage, scratch, nodes, masks): such a buffer is set up once, like a setting.
 /// What can go wrong with a frame or a call's inputs is each module's own error instead

@@ -71,7 +71,7 @@ const fn check_geometry(
 /// A borrowed 8-bit grey image: `height` rows of `width` pixels, rows `stride` bytes apart.
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// let pixels = [0u8; 8 * 6];
 /// let frame = ImageView::new(&pixels, 8, 6, 8).unwrap();
 /// assert_eq!((frame.width(), frame.height()), (8, 6));
@@ -89,7 +89,7 @@ impl<'a> ImageView<'a> {
     /// Wraps `data` as a `width` x `height` image whose rows start `stride` bytes apart.
     ///
     /// ```
-    /// use kestrel::frame::{ImageError, ImageView};
+    /// use kestrel::{ImageError, ImageView};
     /// let pixels = [0u8; 10];
     /// assert_eq!(ImageView::new(&pixels, 4, 3, 4).unwrap_err(), ImageError::BufferTooSmall);
     /// assert_eq!(ImageView::new(&pixels, 0, 3, 4).unwrap_err(), ImageError::ZeroSize);
@@ -114,7 +114,7 @@ impl<'a> ImageView<'a> {
     /// Wraps a tightly packed buffer (`stride == width`).
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// let pixels = [7u8; 12];
     /// assert_eq!(ImageView::packed(&pixels, 4, 3).unwrap().get(3, 2), Some(7));
     /// ```
@@ -125,7 +125,7 @@ impl<'a> ImageView<'a> {
     /// Width in pixels.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// assert_eq!(ImageView::packed(&[0; 6], 3, 2).unwrap().width(), 3);
     /// ```
     pub const fn width(&self) -> usize {
@@ -135,7 +135,7 @@ impl<'a> ImageView<'a> {
     /// Height in pixels.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// assert_eq!(ImageView::packed(&[0; 6], 3, 2).unwrap().height(), 2);
     /// ```
     pub const fn height(&self) -> usize {
@@ -145,7 +145,7 @@ impl<'a> ImageView<'a> {
     /// Distance between the starts of two rows, in bytes.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// assert_eq!(ImageView::new(&[0; 8], 3, 2, 5).unwrap().stride(), 5);
     /// ```
     pub const fn stride(&self) -> usize {
@@ -155,7 +155,7 @@ impl<'a> ImageView<'a> {
     /// Row `y` as a slice of exactly `width` pixels; an empty slice when `y` is outside the image.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// let frame = ImageView::new(&[1, 2, 3, 0, 4, 5, 6], 3, 2, 4).unwrap();
     /// assert_eq!(frame.row(1), &[4, 5, 6]);
     /// assert!(frame.row(2).is_empty());
@@ -195,7 +195,7 @@ impl<'a> ImageView<'a> {
     /// The pixel at (`x`, `y`), or `None` outside the image.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// let frame = ImageView::packed(&[1, 2, 3, 4], 2, 2).unwrap();
     /// assert_eq!(frame.get(1, 1), Some(4));
     /// assert_eq!(frame.get(2, 0), None);
@@ -207,7 +207,7 @@ impl<'a> ImageView<'a> {
     /// True when both views have the same width and height.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// let a = ImageView::packed(&[0; 6], 3, 2).unwrap();
     /// let b = ImageView::new(&[0; 8], 3, 2, 4).unwrap();
     /// assert!(a.same_size(&b));
@@ -234,7 +234,7 @@ impl defmt::Format for ImageView<'_> {
 /// Bytes needed for a tightly packed `width` x `height` frame.
 ///
 /// ```
-/// const BYTES: usize = kestrel::frame::frame_len(160, 120);
+/// const BYTES: usize = kestrel::frame_len(160, 120);
 /// static FRAME: [u8; BYTES] = [0; BYTES];
 /// assert_eq!(FRAME.len(), 19_200);
 /// ```

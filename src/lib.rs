@@ -2,7 +2,8 @@
 //!
 //! The data flows through the modules in this order:
 //!
-//! 1. [`frame`]: borrowed 8-bit grey frames ([`frame::ImageView`]).
+//! 1. [`ImageView`]: a borrowed 8-bit grey frame with a stride; positions are [`Point`]s of
+//!    [`Q16`] coordinates. These and [`ConfigError`] live at the crate's root.
 //! 2. [`pyramid`]: Gaussian pyramids in caller-owned storage.
 //! 3. [`detect`]: FAST-9 and Shi-Tomasi corners, spread over the frame by a grid.
 //! 4. [`lk`]: Q16 pyramidal Lucas-Kanade, robust to brightness gain and bias.
@@ -63,7 +64,7 @@ pub mod detect;
 #[allow(unsafe_code)]
 pub mod dsp;
 pub mod ego;
-pub mod frame;
+mod frame;
 // The LK core and the pyramid are hot per-pixel loops: window sums, bilinear sampling and the
 // pyramid filter index pixel rows and multiply samples millions of times a frame. Their
 // indices and sums are validated once up front (frame geometry in `frame`, positions against
@@ -90,11 +91,10 @@ pub mod lk;
     )
 )]
 pub mod pyramid;
-pub mod q16;
+mod q16;
 pub mod sensor;
 pub mod track;
 
 pub use config_error::{Bound, ConfigError};
-pub use frame::ImageView;
-pub use pyramid::Pyramid;
+pub use frame::{frame_len, ImageError, ImageView, MAX_DIMENSION};
 pub use q16::{Point, Q16};

@@ -13,7 +13,7 @@
 //!
 //! ```
 //! use kestrel::ego::CameraParams;
-//! use kestrel::frame::ImageView;
+//! use kestrel::ImageView;
 //! use kestrel::sensor::{FlowSensor, FlowSensorConfig};
 //! use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig};
 //! use kestrel::lk::scratch_len;
@@ -159,7 +159,7 @@ impl FlowSensorConfig {
 ///
 /// ```
 /// # use kestrel::ego::CameraParams;
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError};
 /// # use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig, TrackerError};
 /// # use kestrel::{detect::Corner, lk::scratch_len};
@@ -309,7 +309,7 @@ impl<'m, const N: usize> FlowSensor<'m, N> {
     ///
     /// ```
     /// # use kestrel::ego::CameraParams;
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::sensor::{FlowSensor, FlowSensorConfig, SensorStage};
     /// # use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig, TrackerStage};
     /// # use kestrel::{detect::Corner, lk::scratch_len};

@@ -15,9 +15,9 @@ use host_sim::Frame;
 use kestrel::dense::{
     grid_len, DenseError, DenseFlow, DenseParams, GridLayout, GridNode, NodeStatus,
 };
-use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkParams};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+use kestrel::ImageView;
 use kestrel::{Bound, ConfigError};
 
 const NOISE: f64 = 1.5;

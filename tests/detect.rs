@@ -7,7 +7,7 @@ use kestrel::detect::{
     fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, ExclusionMask,
     Fast, Grid, Region, ShiTomasi,
 };
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 use kestrel::{Bound, ConfigError, Point};
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -8,10 +8,10 @@
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LEN};
 use kestrel::ego::CameraParams;
-use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::scratch_len;
 use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError};
 use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig, TrackerError};
+use kestrel::{ImageError, ImageView};
 
 #[allow(dead_code)]
 #[path = "../firmware/build.rs"]

@@ -2,13 +2,13 @@
 //!
 //! Accuracy against ground truth and the f32 reference is in `lk_accuracy.rs`.
 
-use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{
     scratch_len, Illumination, LkError, LkParams, LucasKanade, PointTrack, TrackStatus,
 };
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::Point;
 use kestrel::{Bound, ConfigError};
+use kestrel::{ImageError, ImageView};
 
 /// A smooth, textured test image shifted by (`dx`, `dy`): a few sinusoids, values in 20..235.
 fn texture(w: usize, h: usize, dx: f32, dy: f32) -> Vec<u8> {

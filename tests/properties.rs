@@ -27,12 +27,12 @@ use kestrel::ego::mavlink::{encode_optical_flow_rad, MavlinkHeader, MAX_FRAME_LE
 use kestrel::ego::{
     Camera, CameraParams, EgoMotion, EgoStatus, FlowRadAccumulator, ModelKind, Ransac, RansacParams,
 };
-use kestrel::frame::ImageView;
 use kestrel::lk::{
     scratch_len, Illumination, LkParams, LucasKanade, PointTrack, TemplatePlacement, TrackStatus,
 };
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::track::{Detector, Gates, Refill, Track, Tracker, TrackerConfig, TrackerError};
+use kestrel::ImageView;
 use kestrel::{Point, Q16};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, RngSeed};

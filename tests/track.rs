@@ -16,10 +16,10 @@ use host_sim::synth::{
 };
 use host_sim::tracking::{track_sequence, HostBuffers, TrackingFailure};
 use host_sim::Frame;
-use kestrel::frame::ImageView;
 use kestrel::track::{
     FrameReport, Gates, Refill, Relocation, Search, Track, Tracker, TrackerConfig, TrackerError,
 };
+use kestrel::ImageView;
 use kestrel::Point;
 
 /// Capacity of the trackers under test.

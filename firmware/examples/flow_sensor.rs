@@ -32,10 +32,10 @@ use kestrel::ego::mavlink::{
     MAX_FRAME_LEN,
 };
 use kestrel::ego::CameraParams;
-use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::sensor::{FlowSensor, FlowSensorConfig};
 use kestrel::track::{tracker_storage_len, TrackerBuffers, TrackerConfig};
+use kestrel::ImageView;
 use kestrel::Point;
 
 /// The camera's frames: 8-bit grey, packed rows.

@@ -1,8 +1,8 @@
 //! Frames the library must refuse with an error value, while the firmware keeps running.
 
 use cortex_m_semihosting::hprintln;
-use kestrel::frame::ImageError;
 use kestrel::track::TrackerError;
+use kestrel::ImageError;
 
 use crate::checks::frame_quality;
 use crate::meter::Meter;

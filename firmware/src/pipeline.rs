@@ -9,7 +9,6 @@ use kestrel::dense::{DenseError, DenseSummary, MotionSummary, ObjectsStage};
 use kestrel::detect::Corner;
 use kestrel::ego::mavlink::EncodeError;
 use kestrel::ego::{EgoMotion, ModelKind, OpticalFlowRad, RansacError};
-use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::{scratch_len, LkParams, TemplatePlacement};
 use kestrel::pyramid::Pyramid;
 use kestrel::track::{
@@ -17,6 +16,7 @@ use kestrel::track::{
     TrackerConfig, TrackerError, TrackerStage,
 };
 use kestrel::{ConfigError, Point};
+use kestrel::{ImageError, ImageView};
 
 use crate::dense::{Dense, DenseMemory};
 use crate::ego::Ego;

@@ -3,8 +3,8 @@
 //! points. Reported, never checked.
 
 use cortex_m_semihosting::hprintln;
-use kestrel::frame::ImageView;
 use kestrel::lk::{Illumination, LkParams, LucasKanade, PointTrack};
+use kestrel::ImageView;
 use kestrel::Point;
 
 use crate::camera;

@@ -12,7 +12,7 @@
 //! every valid block, the object's too. Reported, never checked.
 
 use cortex_m_semihosting::hprintln;
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 // The crate, not this module.
 use ::px4flow::{BlockMatcher, Config, Error, Flow, Workspace};
 

@@ -16,11 +16,11 @@ use cortex_m_semihosting::hprintln;
 use heapless::String;
 use kestrel::ego::mavlink::MAX_FRAME_LEN;
 use kestrel::ego::{CameraParams, OpticalFlow};
-use kestrel::frame::ImageView;
 use kestrel::lk::scratch_len;
 use kestrel::sensor::{FlowSensor, FlowSensorConfig, FlowSensorError, SensorStage};
 use kestrel::track::{tracker_storage_len, TrackerConfig};
 use kestrel::ConfigError;
+use kestrel::ImageView;
 
 use crate::bad_input;
 use crate::camera;

@@ -1,6 +1,6 @@
 //! Owned grey frames on the host.
 
-use kestrel::frame::{ImageError, ImageView};
+use kestrel::{ImageError, ImageView};
 
 /// An owned, tightly packed 8-bit grey frame.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -54,8 +54,8 @@ use std::time::Instant;
 use host_sim::synth::{Homography, Scene, SceneSpec, SplitMix64};
 use host_sim::tracking::{config_for, HostBuffers};
 use host_sim::Frame;
-use kestrel::frame::ImageView;
 use kestrel::track::{Track, Tracker};
+use kestrel::ImageView;
 
 /// Frames of the run unless `KESTREL_SOAK_FRAMES` says otherwise.
 const CI_FRAMES: usize = 3_000;

@@ -33,7 +33,7 @@
 //! and its gyro compensation (`BFLOW_GYRO_COM`, off by default) are left out.
 //!
 //! ```
-//! use kestrel::frame::ImageView;
+//! use kestrel::ImageView;
 //! use px4flow::{BlockMatcher, Config, Workspace};
 //!
 //! // A textured 80x80 frame and the same frame moved 2 px right and 1 px down.
@@ -72,7 +72,7 @@
 )]
 
 use kestrel::dsp::{uhadd8, usada8};
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 
 /// Side of the central crop matched, px: PX4FLOW's image is 64x64 (`BOTTOM_FLOW_IMAGE_WIDTH`,
 /// `BOTTOM_FLOW_IMAGE_HEIGHT` in its `settings.h`).
@@ -313,7 +313,7 @@ impl BlockMatcher {
     /// into `workspace` first.
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use px4flow::{BlockMatcher, Config, Error, Workspace};
     /// let matcher = BlockMatcher::new(Config::default())?;
     /// let mut workspace = Workspace::new();
@@ -339,7 +339,7 @@ impl BlockMatcher {
     /// Like [`BlockMatcher::flow`], with every block's match written to `blocks`, row by row.
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use px4flow::{BlockMatcher, BlockStatus, Config, Workspace, BLOCKS};
     /// let matcher = BlockMatcher::new(Config::default())?;
     /// let flat = [0u8; 64 * 64];

@@ -13,7 +13,7 @@
 //!   in 17 of 20 frames at sigma 1.5, 204-255 in all at sigma 2, with random flow.
 
 use host_sim::synth::{pair, Homography, SceneSpec, SplitMix64};
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 use px4flow::{
     BlockMatch, BlockMatcher, BlockStatus, Config, Error, Flow, Workspace, BLOCKS, CROP,
 };

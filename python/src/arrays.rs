@@ -1,8 +1,8 @@
 //! numpy arrays in and out: grey frames as the library's stride-aware views, point lists, and
 //! the arrays returned.
 
-use kestrel::frame::{ImageView, MAX_DIMENSION};
 use kestrel::Point;
+use kestrel::{ImageView, MAX_DIMENSION};
 use numpy::ndarray::{Array, IxDyn};
 use numpy::{
     IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArray,

@@ -17,7 +17,7 @@ pub fn frame_size(width: Option<i64>, height: Option<i64>) -> PyResult<Option<(u
     match (width, height) {
         (None, None) => Ok(None),
         (Some(w), Some(h)) => {
-            let max = kestrel::frame::MAX_DIMENSION;
+            let max = kestrel::MAX_DIMENSION;
             let side = |v: i64| usize::try_from(v).ok().filter(|v| (1..=max).contains(v));
             match (side(w), side(h)) {
                 (Some(w), Some(h)) => Ok(Some((w, h))),

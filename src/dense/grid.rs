@@ -506,7 +506,7 @@ pub struct DenseSummary {
 ///
 /// ```
 /// use kestrel::dense::{grid_len, DenseFlow, DenseParams, GridNode};
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 ///
@@ -639,7 +639,7 @@ impl DenseFlow {
     ///
     /// ```
     /// use kestrel::dense::{grid_len, DenseFlow, DenseParams, GridNode};
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::lk::scratch_len;
     /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
     /// use kestrel::Point;

@@ -138,7 +138,7 @@ use crate::ConfigError;
 ///
 /// ```
 /// use kestrel::dense::{grid_len, DenseError, DenseFlow, DenseParams, GridNode};
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// use kestrel::{Bound, ConfigError};

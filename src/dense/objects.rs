@@ -192,7 +192,7 @@ pub enum ObjectsStage {
 ///     grid_len, mask_words, motion_scratch_len, outline_scratch_len, GridNode, MovingObjects,
 ///     MovingObjectsBuffers, MovingObjectsConfig, OutlineParams,
 /// };
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 ///
@@ -365,7 +365,7 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// #     grid_len, mask_words, motion_scratch_len, DenseError, GridNode, MovingObjects,
     /// #     MovingObjectsBuffers, MovingObjectsConfig,
     /// # };
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::lk::scratch_len;
     /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
     /// use kestrel::ego::{EgoMotion, EgoStatus, Homography, ModelKind};
@@ -428,7 +428,7 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
     /// #     grid_len, mask_words, motion_scratch_len, outline_scratch_len, GridNode,
     /// #     MovingObjects, MovingObjectsBuffers, MovingObjectsConfig, ObjectsStage, OutlineParams,
     /// # };
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::lk::scratch_len;
     /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
     /// # const W: usize = 64;

@@ -56,7 +56,7 @@ pub const fn fast_scratch_len(width: usize) -> usize {
 /// ```
 /// use kestrel::detect::{fast_scratch_len, Fast};
 /// use kestrel::detect::{Corner, Region};
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 ///
 /// // Three bright dots on a grey frame, of contrast 200, 70 and 5.
 /// let mut pixels = [50u8; 32 * 16];
@@ -104,7 +104,7 @@ impl Fast {
     /// ```
     /// use kestrel::detect::{fast_scratch_len, Fast};
     /// use kestrel::detect::{Corner, Region};
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     ///
     /// // Three bright dots on a grey frame; the faintest is below the threshold.
     /// let mut pixels = [50u8; 32 * 16];
@@ -462,7 +462,7 @@ fn best_arc_min(v: &[u8; 16], starts: u32) -> u8 {
 ///
 /// ```
 /// use kestrel::detect::fast9_score;
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 ///
 /// // A dark pixel at the tip of a bright wedge: the 9 circle pixels to its right are 100,
 /// // the others 50, the centre 40. Darkest arc pixel minus the centre is 60, so the score is 59.

@@ -161,7 +161,7 @@ impl Region {
     ///
     /// ```
     /// use kestrel::detect::Region;
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// let image = ImageView::packed(&[0; 12], 4, 3).unwrap();
     /// assert_eq!(Region::full(&image), Region::new(0, 0, 4, 3));
     /// ```

@@ -85,7 +85,7 @@ pub const fn shi_tomasi_scratch_len(width: usize, capacity: usize) -> usize {
 /// ```
 /// use kestrel::detect::{shi_tomasi_scratch_len, ShiTomasi};
 /// use kestrel::detect::{Corner, Region};
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 ///
 /// // A bright 12 x 12 square on a dark frame: its corners are about 11 px apart.
 /// let pixels: [u8; 32 * 32] = core::array::from_fn(|i| {
@@ -140,7 +140,7 @@ impl ShiTomasi {
     /// ```
     /// use kestrel::detect::{shi_tomasi_scratch_len, ShiTomasi};
     /// use kestrel::detect::{Corner, Region};
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     ///
     /// // A bright 12 x 12 square on a dark 32 x 32 frame: one corner near each of its corners.
     /// let pixels: [u8; 32 * 32] = core::array::from_fn(|i| {
@@ -705,7 +705,7 @@ fn isqrt(n: u64) -> u64 {
 ///
 /// ```
 /// use kestrel::detect::min_eigen_score;
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 ///
 /// // A plain ramp has gradient in one direction only: λmin = 0.
 /// let ramp: [u8; 8 * 8] = core::array::from_fn(|i| (i % 8) as u8 * 10);

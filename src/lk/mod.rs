@@ -11,7 +11,7 @@
 //! 21 x 21 window, coarsest level 3, 30 iterations, epsilon 0.01 px, minimum eigenvalue 1e-4.
 //!
 //! ```
-//! use kestrel::frame::ImageView;
+//! use kestrel::ImageView;
 //! use kestrel::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
 //! use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 //! use kestrel::Point;
@@ -110,7 +110,7 @@ pub enum Illumination {
 /// Where the template window sits in the previous frame at each pyramid level.
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::{scratch_len, LkParams, LucasKanade, TemplatePlacement, TrackStatus};
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// use kestrel::Point;
@@ -164,7 +164,7 @@ pub enum TemplatePlacement {
 /// [`LkParams::min_eigen_threshold`] asks for:
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::{scratch_len, LkParams, LucasKanade, TrackStatus};
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// use kestrel::Point;
@@ -231,7 +231,7 @@ impl Default for LkParams {
 /// instead; refused settings are [`LucasKanade::new`]'s [`ConfigError`]).
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade};
 /// use kestrel::pyramid::Pyramid;
 /// use kestrel::{Bound, ConfigError, Point};
@@ -444,7 +444,7 @@ impl LucasKanade {
     /// `guesses`, when given, holds one predicted position per point.
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::lk::{scratch_len, LkParams, LucasKanade, PointTrack, TrackStatus};
     /// use kestrel::pyramid::Pyramid;
     /// use kestrel::Point;

@@ -57,7 +57,7 @@ pub const fn pyramid_storage_len(width: usize, height: usize, max_level: usize) 
 /// An image pyramid: level 0 borrowed from the caller's frame, coarser levels in caller storage.
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// let pixels = [128u8; 64 * 48];
 /// let frame = ImageView::packed(&pixels, 64, 48).unwrap();
@@ -77,7 +77,7 @@ pub struct Pyramid<'a> {
 /// How each pyramid level is made from the one below it.
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
 ///
 /// // One bright pixel at (2, 2): the box mean keeps it in its 2 x 2 block, the Gaussian
@@ -119,7 +119,7 @@ impl<'a> Pyramid<'a> {
     /// `"max_level"` or `"storage"`.
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
     /// use kestrel::{Bound, ConfigError};
     /// let pixels = [0u8; 16];
@@ -141,7 +141,7 @@ impl<'a> Pyramid<'a> {
     /// Builds levels `1..=max_level` of `frame` into `storage` with `filter`.
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::pyramid::{pyramid_storage_len, Pyramid, PyramidFilter};
     /// let pixels: [u8; 16] = [0, 2, 10, 20, 4, 6, 30, 40, 9, 9, 9, 9, 9, 9, 9, 9];
     /// let frame = ImageView::packed(&pixels, 4, 4).unwrap();
@@ -185,7 +185,7 @@ impl<'a> Pyramid<'a> {
     /// pyramid this way without rebuilding it).
     ///
     /// ```
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
     /// let pixels = [9u8; 20 * 10];
     /// let frame = ImageView::packed(&pixels, 20, 10).unwrap();
@@ -236,7 +236,7 @@ impl<'a> Pyramid<'a> {
     /// Index of the coarsest level.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::pyramid::Pyramid;
     /// let pixels = [0u8; 4];
     /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();
@@ -249,7 +249,7 @@ impl<'a> Pyramid<'a> {
     /// Level `level` (0 = full resolution), or `None` beyond [`Pyramid::max_level`].
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::pyramid::Pyramid;
     /// let pixels = [0u8; 4];
     /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();
@@ -263,7 +263,7 @@ impl<'a> Pyramid<'a> {
     /// The full-resolution frame.
     ///
     /// ```
-    /// # use kestrel::frame::ImageView;
+    /// # use kestrel::ImageView;
     /// # use kestrel::pyramid::Pyramid;
     /// let pixels = [3u8; 4];
     /// let p = Pyramid::build(ImageView::packed(&pixels, 2, 2).unwrap(), 0, &mut []).unwrap();

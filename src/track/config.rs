@@ -70,7 +70,7 @@ impl Default for Detector {
 ///
 /// ```
 /// use kestrel::detect::Corner;
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::lk::scratch_len;
 /// use kestrel::track::{
 ///     detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers, TrackerConfig,
@@ -139,7 +139,7 @@ pub struct TrackerConfig {
 /// ```
 /// use kestrel::track::{Search, TrackerConfig};
 /// # use kestrel::detect::Corner;
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::lk::scratch_len;
 /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, Track, Tracker, TrackerBuffers};
 /// # const W: usize = 64;
@@ -229,7 +229,7 @@ impl Default for Search {
 /// ```
 /// use kestrel::track::{Gates, TrackerConfig};
 /// # use kestrel::detect::Corner;
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::lk::scratch_len;
 /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
 /// # const W: usize = 64;
@@ -345,7 +345,7 @@ impl Default for Gates {
 /// ```
 /// use kestrel::track::{Refill, TrackerConfig};
 /// # use kestrel::detect::Corner;
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::lk::scratch_len;
 /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
 /// # const W: usize = 160;
@@ -438,7 +438,7 @@ impl Default for Refill {
 /// ```
 /// use kestrel::track::{Relocation, TrackerConfig};
 /// # use kestrel::detect::Corner;
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::lk::scratch_len;
 /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, FrameReport, Tracker, TrackerBuffers};
 /// # const W: usize = 64;

@@ -27,7 +27,7 @@
 //!
 //! ```
 //! use kestrel::detect::Corner;
-//! use kestrel::frame::ImageView;
+//! use kestrel::ImageView;
 //! use kestrel::lk::scratch_len;
 //! use kestrel::track::{
 //!     detect_scratch_len, tracker_storage_len, Refill, Tracker, TrackerBuffers, TrackerConfig,
@@ -108,7 +108,7 @@ use refill::DetectBuffers;
 /// use kestrel::track::{Tracker, Refill, TrackerConfig};
 /// use kestrel::Point;
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
-/// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+/// # use kestrel::{detect::Corner, ImageView, lk::scratch_len};
 /// # const W: usize = 64;
 /// # const H: usize = 48;
 /// # let mut storage = [0u8; tracker_storage_len(W, H, 3)];
@@ -228,7 +228,7 @@ impl FrameReport {
 /// [`ConfigError`] of [`Tracker::new`]).
 ///
 /// ```
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::track::{Tracker, Refill, TrackerConfig, TrackerError};
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
 /// # use kestrel::{detect::Corner, lk::scratch_len};
@@ -302,7 +302,7 @@ struct Previous {
 /// ```
 /// use kestrel::track::{TrackerStage, Tracker, Refill, TrackerConfig};
 /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
-/// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+/// # use kestrel::{detect::Corner, ImageView, lk::scratch_len};
 /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
 /// # let mut lk_scratch = [0i16; scratch_len(21)];
 /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
@@ -476,7 +476,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// ```
     /// use kestrel::track::{TrackerStage, Tracker, Refill, TrackerConfig};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
-    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # use kestrel::{detect::Corner, ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
     /// # let mut lk_scratch = [0i16; scratch_len(21)];
     /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
@@ -569,7 +569,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// ```
     /// use kestrel::track::{Tracker, Refill, TrackerConfig, TrackerError};
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, TrackerBuffers};
-    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # use kestrel::{detect::Corner, ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
     /// # let mut lk_scratch = [0i16; scratch_len(21)];
     /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];
@@ -660,7 +660,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     /// # let mut candidates = [Corner::default(); 24];
     /// # let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
     /// #     detect_scratch: &mut detect_scratch, candidates: &mut candidates };
-    /// use kestrel::frame::ImageView;
+    /// use kestrel::ImageView;
     /// use kestrel::Point;
     /// // Smooth blobs on a 66 x 64 canvas; the second frame is the first moved 2 px left.
     /// let canvas: [u8; 66 * 64] = core::array::from_fn(|i| {
@@ -701,7 +701,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
     ///
     /// ```
     /// # use kestrel::track::{tracker_storage_len, detect_scratch_len, Refill, Tracker, TrackerBuffers, TrackerConfig};
-    /// # use kestrel::{detect::Corner, frame::ImageView, lk::scratch_len};
+    /// # use kestrel::{detect::Corner, ImageView, lk::scratch_len};
     /// # let mut storage = [0u8; tracker_storage_len(32, 32, 3)];
     /// # let mut lk_scratch = [0i16; scratch_len(21)];
     /// # let mut detect_scratch = [0i32; detect_scratch_len(32, 1, 4)];

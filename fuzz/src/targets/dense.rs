@@ -197,7 +197,7 @@ fn check_refusal(
     e: DenseError,
     params: &DenseParams,
     (w, h): (usize, usize),
-    next: &kestrel::frame::ImageView<'_>,
+    next: &kestrel::ImageView<'_>,
     short_nodes: bool,
     short_scratch: bool,
 ) {

@@ -14,7 +14,7 @@ use kestrel::detect::{
     fast9_score, fast_scratch_len, min_eigen_score, shi_tomasi_scratch_len, Corner, ExclusionMask,
     Fast, Grid, Region, ShiTomasi, FAST_BORDER, MAX_BLOCK, MAX_CELLS_PER_SIDE,
 };
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 use kestrel::{Bound, ConfigError, Point};
 
 #[derive(Arbitrary, Debug)]

@@ -7,9 +7,9 @@
 //! (the blur is a weighted mean) and read back identically through `from_storage`.
 
 use arbitrary::Arbitrary;
-use kestrel::frame::{ImageError, ImageView, MAX_DIMENSION};
 use kestrel::pyramid::{level_size, pyramid_storage_len, Pyramid, MAX_LEVEL};
 use kestrel::{Bound, ConfigError};
+use kestrel::{ImageError, ImageView, MAX_DIMENSION};
 
 /// Larger buffers only slow the fuzzer down; the geometry still reaches 4097 px and beyond.
 const MAX_BUFFER: usize = 1 << 16;

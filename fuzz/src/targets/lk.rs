@@ -9,10 +9,10 @@
 
 use super::picture::{Change, Picture};
 use arbitrary::Arbitrary;
-use kestrel::frame::ImageView;
 use kestrel::lk::{scratch_len, LkError, LkParams, LucasKanade, PointTrack};
 use kestrel::lk::{TrackStatus, MAX_WINDOW};
 use kestrel::pyramid::{pyramid_storage_len, Pyramid, MAX_LEVEL};
+use kestrel::ImageView;
 use kestrel::{Bound, ConfigError, Point, Q16};
 
 #[derive(Arbitrary, Debug)]

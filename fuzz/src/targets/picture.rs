@@ -4,7 +4,7 @@
 //! change between frames, or one of the hostile patterns a camera produces.
 
 use arbitrary::Arbitrary;
-use kestrel::frame::ImageView;
+use kestrel::ImageView;
 
 /// What the pixels show.
 #[derive(Arbitrary, Debug, Clone)]

@@ -166,7 +166,7 @@ pub fn create_output_dir(dir: &Path) -> Result<(), OutputError> {
 
 /// Checks that a `width` x `height` frame is one the library accepts.
 pub fn check_frame_size(width: usize, height: usize) -> Result<(), String> {
-    use kestrel::frame::MAX_DIMENSION;
+    use kestrel::MAX_DIMENSION;
     if width == 0 || height == 0 {
         return Err(format!("frame is {width}x{height}; it has no pixels"));
     }

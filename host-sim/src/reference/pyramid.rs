@@ -100,7 +100,8 @@ mod tests {
         };
         let levels = pyramid(&frame, 2);
         let mut storage = vec![0u8; kestrel::pyramid::pyramid_storage_len(w, h, 2)];
-        let library = kestrel::Pyramid::build(frame.view().unwrap(), 2, &mut storage).unwrap();
+        let library =
+            kestrel::pyramid::Pyramid::build(frame.view().unwrap(), 2, &mut storage).unwrap();
         // Level 1 is filtered from the same 8-bit frame: only the final rounding differs.
         let fixed = library.level(1).unwrap();
         for y in 0..levels[1].height {

@@ -59,7 +59,7 @@ pub const OUTLINE_MAX_REACH: usize = 128;
 /// #     grid_len, mask_set, mask_words, outline_scratch_len, CameraMotion, GridLayout, GridNode,
 /// #     MotionBox, OutlineParams, Outliner,
 /// # };
-/// # use kestrel::frame::ImageView;
+/// # use kestrel::ImageView;
 /// # use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// # use kestrel::Point;
 /// #
@@ -190,7 +190,7 @@ impl Default for OutlineParams {
 ///     grid_len, mask_set, mask_words, outline_scratch_len, CameraMotion, GridLayout, GridNode,
 ///     MotionBox, OutlineParams, Outliner,
 /// };
-/// use kestrel::frame::ImageView;
+/// use kestrel::ImageView;
 /// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 /// use kestrel::Point;
 ///

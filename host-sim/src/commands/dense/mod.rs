@@ -122,7 +122,7 @@ impl GridFlags {
 
 /// Cells up to the largest frame; the frame's own size is checked once it is read.
 fn cell(text: &str) -> Result<usize, String> {
-    let range = |n| (1..=kestrel::frame::MAX_DIMENSION as i64).contains(&n);
+    let range = |n| (1..=kestrel::MAX_DIMENSION as i64).contains(&n);
     values::whole(text, range, "must be between 1 and 4096").map(|n| n as usize)
 }
 

@@ -10,10 +10,10 @@ use kestrel::dense::{
     DominantMotion, GridLayout, GridNode, MotionBox, MotionParams, MotionSummary, MovingObjects,
     MovingObjectsBuffers, MovingObjectsConfig, OutlineParams, SMOOTH_GATE, SMOOTH_PASSES,
 };
-use kestrel::frame::{ImageError, ImageView};
 use kestrel::lk::scratch_len;
 use kestrel::pyramid::{pyramid_storage_len, Pyramid};
 use kestrel::{ConfigError, Point};
+use kestrel::{ImageError, ImageView};
 
 use crate::Frame;
 

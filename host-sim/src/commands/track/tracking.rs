@@ -5,13 +5,13 @@ use std::time::Instant;
 
 use kestrel::detect::Corner;
 use kestrel::detect::{Grid, MAX_CELLS_PER_SIDE};
-use kestrel::frame::ImageError;
 use kestrel::lk::{scratch_len, Illumination, LkParams, TemplatePlacement};
 use kestrel::track::{
     detect_scratch_len, tracker_storage_len, FrameReport, Gates, Refill, Relocation, Track,
     Tracker, TrackerBuffers, TrackerConfig, TrackerError,
 };
 use kestrel::ConfigError;
+use kestrel::ImageError;
 
 use crate::cli::values;
 use crate::Frame;

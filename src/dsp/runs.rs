@@ -93,32 +93,6 @@ pub(crate) fn rescale(s: i32) -> i16 {
     value
 }
 
-/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy]` over runs of one length, modulo 2^32.
-#[inline(always)]
-pub(crate) fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::gradient_sums(gx, gy)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::gradient_sums(gx, gy)
-    }
-}
-
-/// `[Σ i, Σ i², Σ i gx, Σ i gy]` over runs of one length, modulo 2^32.
-#[inline(always)]
-pub(crate) fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::intensity_sums(i, gx, gy)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::intensity_sums(i, gx, gy)
-    }
-}
-
 /// One row of [`bilinear`] samples: `out[k]` from `top[k]`, `top[k + 1]`, `bottom[k]` and
 /// `bottom[k + 1]`, for every `k` that both rows reach (rows of `out.len() + 1` values fill
 /// `out`; samples they do not reach are left alone).
@@ -171,6 +145,27 @@ pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i1
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     {
         portable::widen_rows(block, stride, cols, out);
+    }
+}
+
+/// Template values summed in 32 bits before widening: a product of two is at most
+/// `8160^2 = 66_585_600` for intensities of 8-bit pixels, 64 of them below `2^32` (`ΣI²`,
+/// read unsigned) and the signed sums below `2^31`.
+pub(crate) const TEMPLATE_CHUNK: usize = 64;
+
+/// The template's window sums over its intensity and gradient buffers (padding zero):
+/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy, Σ i, Σ i², Σ i gx, Σ i gy]`, each summed in 32 bits over
+/// [`TEMPLATE_CHUNK`] values at a time, wrapping, and the chunks in 64 bits (`Σ i²`'s 32 bits
+/// read unsigned, the others signed).
+#[inline(always)]
+pub(crate) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        super::sse2::template_sums(intensity, dx, dy)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        portable::template_sums(intensity, dx, dy)
     }
 }
 
@@ -317,6 +312,40 @@ pub(crate) mod portable {
             *gy = rescale(scharr_smooth(h0, h1, h2));
             (v0, h0, v1, h1) = (v1, h1, v2, h2);
         }
+    }
+
+    /// [`super::template_sums`] in two passes of dual multiply-accumulates over each chunk
+    /// (even in length, or ending a buffer whose rows end in their zero padding column, so its
+    /// values pair up): the gradients' sums and products, then the intensities' with
+    /// themselves and the gradients. A plain sum is a multiply-accumulate with ones.
+    #[inline(never)]
+    pub(crate) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+        let mut s = [0i64; 9];
+        let chunk = super::TEMPLATE_CHUNK;
+        let rows = intensity
+            .chunks(chunk)
+            .zip(dx.chunks(chunk).zip(dy.chunks(chunk)));
+        for (i, (gx, gy)) in rows {
+            let [gxx, gxy, gyy, sx, sy] = gradient_sums(gx, gy);
+            let [si, sii, six, siy] = intensity_sums(i, gx, gy);
+            // `Σ i²` of a chunk, read unsigned.
+            let sii = sii as u32;
+            let sums = [
+                i64::from(gxx),
+                i64::from(gxy),
+                i64::from(gyy),
+                i64::from(sx),
+                i64::from(sy),
+                i64::from(si),
+                i64::from(sii),
+                i64::from(six),
+                i64::from(siy),
+            ];
+            for (total, v) in s.iter_mut().zip(sums) {
+                *total = total.wrapping_add(v);
+            }
+        }
+        s
     }
 
     /// [`super::correlate`]: `ΣP` of each neighbour from the block's total, first and last
@@ -590,17 +619,38 @@ mod tests {
                     wide(&|k| t(k) * y(k)),
                 ];
                 assert_eq!(portable::gradient_sums(gx, gy), gradients, "{len}");
-                assert_eq!(gradient_sums(gx, gy), gradients, "{len}");
                 assert_eq!(portable::intensity_sums(i, gx, gy), intensities, "{len}");
-                assert_eq!(intensity_sums(i, gx, gy), intensities, "{len}");
                 assert_eq!(portable::sum(i), intensities[0], "{len}");
+                assert_eq!(
+                    template_sums(i, gx, gy),
+                    portable::template_sums(i, gx, gy),
+                    "{len}"
+                );
             }
         }
+        // Buffers of unequal lengths, and windows' buffers (chunks of 64, the last shorter) of
+        // template values at their extremes.
         let a = v.run::<30>(30);
         for (la, lb) in [(30, 21), (9, 30), (3, 0)] {
             let (x, y) = (&a[..la], &a[..lb]);
-            assert_eq!(gradient_sums(x, y), portable::gradient_sums(x, y));
-            assert_eq!(intensity_sums(y, x, x), portable::intensity_sums(y, x, x));
+            assert_eq!(template_sums(y, x, x), portable::template_sums(y, x, x));
+        }
+        for len in [90, 110, 462, 1056, 3969] {
+            let mut buffers = [[0i16; 3969]; 3];
+            for (b, extreme) in buffers.iter_mut().zip([8160, 4080, -4080]) {
+                for (k, value) in b.iter_mut().take(len).enumerate() {
+                    *value = if k % 3 == 0 {
+                        extreme
+                    } else {
+                        v.next() & 0x0FFF
+                    };
+                }
+            }
+            let [i, x, y] = buffers.each_ref().map(|b| &b[..len]);
+            let sums = template_sums(i, x, y);
+            assert_eq!(sums, portable::template_sums(i, x, y), "{len}");
+            let exact: i64 = i.iter().map(|&v| i64::from(v) * i64::from(v)).sum();
+            assert_eq!(sums[6], exact, "{len}");
         }
     }
 

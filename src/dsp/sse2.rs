@@ -28,14 +28,15 @@
 // `rust-version` is 1.85): their `unsafe` blocks are needed on old compilers only.
 #![allow(unused_unsafe)]
 
-use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, WEIGHT_BITS};
+use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
     __m128i, _mm_add_epi16, _mm_add_epi32, _mm_and_si128, _mm_cmpeq_epi16, _mm_loadl_epi64,
     _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
     _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
     _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
     _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
-    _mm_unpacklo_epi16, _mm_unpacklo_epi8,
+    _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
+    _mm_unpacklo_epi64, _mm_unpacklo_epi8,
 };
 
 /// `i16` values in a register.
@@ -251,57 +252,87 @@ fn correlate_pass(run: &[i16], t: [&[i16]; 3]) -> Option<([[i32; 3]; 2], i32)> {
     Some((dots, lanes_sum(total, 0)))
 }
 
-/// [`super::runs::gradient_sums`].
+/// [`super::runs::template_sums`]: the nine products of each block of eight values in one pass
+/// (the last block of a chunk that is not a multiple of eight long overlapping the one
+/// before, masked), and the lanes of each chunk's sums added at its end.
 #[inline(never)]
-pub(super) fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
-    if gx.len() < LANES || gx.len() != gy.len() {
-        return portable::gradient_sums(gx, gy);
+pub(super) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+    let n = intensity.len();
+    if n < LANES || dx.len() != n || dy.len() != n {
+        return portable::template_sums(intensity, dx, dy);
     }
     let ones = pairs_of(1, 1);
-    let mut acc = [zero(); 5];
-    let mut add5 = |x, y| {
-        let terms = [
-            madd(x, x),
-            madd(x, y),
-            madd(y, y),
-            madd(x, ones),
-            madd(y, ones),
-        ];
-        for (acc, term) in acc.iter_mut().zip(terms) {
-            *acc = add(*acc, term);
+    let mut s = [0i64; 9];
+    let chunks = intensity
+        .chunks(TEMPLATE_CHUNK)
+        .zip(dx.chunks(TEMPLATE_CHUNK).zip(dy.chunks(TEMPLATE_CHUNK)));
+    for (i, (gx, gy)) in chunks {
+        if i.len() < LANES {
+            let part = portable::template_sums(i, gx, gy);
+            for (total, v) in s.iter_mut().zip(part) {
+                *total = total.wrapping_add(v);
+            }
+            continue;
         }
-    };
-    for (x, y) in whole(gx).zip(whole(gy)) {
-        add5(x, y);
+        let mut acc = [zero(); 9];
+        let mut add9 = |v, x, y| {
+            let terms = [
+                madd(x, x),
+                madd(x, y),
+                madd(y, y),
+                madd(x, ones),
+                madd(y, ones),
+                madd(v, ones),
+                madd(v, v),
+                madd(v, x),
+                madd(v, y),
+            ];
+            for (acc, term) in acc.iter_mut().zip(terms) {
+                *acc = add(*acc, term);
+            }
+        };
+        for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
+            add9(v, x, y);
+        }
+        if let (Some(v), Some(x), Some(y)) = (last_masked(i), last_masked(gx), last_masked(gy)) {
+            add9(v, x, y);
+        }
+        let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
+        let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
+        let widened = [
+            i64::from(first[0]),
+            i64::from(first[1]),
+            i64::from(first[2]),
+            i64::from(first[3]),
+            i64::from(second[0]),
+            i64::from(second[1]),
+            // `Σ i²` of a chunk, read unsigned.
+            i64::from(second[2] as u32),
+            i64::from(second[3]),
+            i64::from(lanes_sum(a8, 0)),
+        ];
+        for (total, v) in s.iter_mut().zip(widened) {
+            *total = total.wrapping_add(v);
+        }
     }
-    if let (Some(x), Some(y)) = (last_masked(gx), last_masked(gy)) {
-        add5(x, y);
-    }
-    acc.map(|acc| lanes_sum(acc, 0))
+    s
 }
 
-/// [`super::runs::intensity_sums`].
-#[inline(never)]
-pub(super) fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
-    if i.len() < LANES || gx.len() != i.len() || gy.len() != i.len() {
-        return portable::intensity_sums(i, gx, gy);
-    }
-    let ones = pairs_of(1, 1);
-    let mut acc = [zero(); 4];
-    let mut add4 = |v, x, y| {
-        let terms = [madd(v, ones), madd(v, v), madd(v, x), madd(v, y)];
-        for (acc, term) in acc.iter_mut().zip(terms) {
-            *acc = add(*acc, term);
-        }
+/// The sums of the four lanes of each of four registers, wrapping: a transpose by unpacks,
+/// added as it goes.
+#[inline(always)]
+fn lane_sums4([a, b, c, d]: [__m128i; 4]) -> [i32; 4] {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let sums = unsafe {
+        // (a0 + a2, b0 + b2, a1 + a3, b1 + b3) and the same for c and d.
+        let ab = add(_mm_unpacklo_epi32(a, b), _mm_unpackhi_epi32(a, b));
+        let cd = add(_mm_unpacklo_epi32(c, d), _mm_unpackhi_epi32(c, d));
+        add(_mm_unpacklo_epi64(ab, cd), _mm_unpackhi_epi64(ab, cd))
     };
-    for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
-        add4(v, x, y);
-    }
-    // Every term has a factor from `i`: its mask is enough.
-    if let (Some(v), Some(x), Some(y)) = (last_masked(i), last(gx), last(gy)) {
-        add4(v, x, y);
-    }
-    acc.map(|acc| lanes_sum(acc, 0))
+    let mut lanes = [0i32; 4];
+    // SAFETY: writes the 16 bytes of `lanes`, with no alignment needed (module docs).
+    unsafe { _mm_storeu_si128(lanes.as_mut_ptr().cast(), sums) };
+    lanes
 }
 
 /// `row` from `start` on (empty past its end).

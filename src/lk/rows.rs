@@ -335,33 +335,18 @@ fn pixel_row(
     }
 }
 
-/// The template's window sums, in two passes of dual multiply-accumulates over the rows (each
-/// row even in length with its zero padding column, so its values pair up): the gradients'
-/// sums and products, then the intensities' with themselves and the gradients. A plain sum
-/// is a multiply-accumulate with ones. The same 32-bit widths per stretch of at most 64 values
-/// as the reference loops' sums in the tests.
-#[inline(never)]
+/// The template's window sums ([`runs::template_sums`]).
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    let mut s = TemplateSums::default();
-    let rows = intensity
-        .chunks(MAX_ROW + 1)
-        .zip(dx.chunks(MAX_ROW + 1).zip(dy.chunks(MAX_ROW + 1)));
-    for (i, (gx, gy)) in rows {
-        let [gxx, gxy, gyy, sx, sy] = runs::gradient_sums(gx, gy);
-        let [si, sii, six, siy] = runs::intensity_sums(i, gx, gy);
-        s.gxx += i64::from(gxx);
-        s.gxy += i64::from(gxy);
-        s.gyy += i64::from(gyy);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-        s.si += i64::from(si);
-        // `ΣI²` of at most 64 values is below 2^32: its 32 bits, read unsigned, are exact.
-        s.sii += i64::from(sii as u32);
-        s.six += i64::from(six);
-        s.siy += i64::from(siy);
+    let [gxx, gxy, gyy, sx, sy, si, sii, six, siy] = runs::template_sums(intensity, dx, dy);
+    TemplateSums {
+        gxx,
+        gxy,
+        gyy,
+        si,
+        sii,
+        sx,
+        sy,
+        six,
+        siy,
     }
-    s
 }
-
-/// Values summed in 32 bits before widening: as many as the largest window's row (module docs).
-const MAX_ROW: usize = super::MAX_WINDOW;

@@ -114,6 +114,25 @@ pub fn smlad(a: u32, b: u32, acc: i32) -> i32 {
     }
 }
 
+/// `floor(2^63 / v)` for `v` in `(2^31, 2^32)`, the reciprocal LK's 2x2 solve scales by: one
+/// 64-bit division on x86-64, [`portable::div_2_63`]'s long division in 16-bit digits
+/// elsewhere (a Cortex-M4 divides 32 bits by 32 in hardware, 64 bits in a library routine of
+/// some two hundred instructions). The same quotient on every target.
+#[inline(always)]
+pub(crate) fn div_2_63(v: u32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Below 2^32 for v > 2^31.
+        #[allow(clippy::cast_possible_truncation)]
+        let quotient = (1u64 << 63).checked_div(u64::from(v)).unwrap_or(0) as u32;
+        quotient
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        portable::div_2_63(v)
+    }
+}
+
 /// The portable versions: the reference semantics of each instruction, on every target.
 ///
 /// ```
@@ -170,6 +189,35 @@ pub mod portable {
         let low = a_lo.wrapping_mul(b_lo);
         let high = a_hi.wrapping_mul(b_hi);
         acc.wrapping_add(low).wrapping_add(high)
+    }
+
+    /// `floor(2^63 / v)` for `v` in `(2^31, 2^32)`, by long division in 16-bit digits (Knuth's
+    /// algorithm D with a normalised divisor): two 32 / 32-bit hardware divisions, where a 64-bit
+    /// division is a library routine of some two hundred instructions on a Cortex-M4.
+    #[allow(clippy::arithmetic_side_effects, clippy::cast_possible_truncation)]
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+    pub(crate) fn div_2_63(v: u32) -> u32 {
+        const B: u64 = 1 << 16;
+        let (high, low) = (v >> 16, u64::from(v & 0xFFFF));
+        // One 16-bit quotient digit of `top * 2^16 / v` (`top < v`, so 32 bits), with its estimate
+        // from the divisor's high half corrected down (by at most two).
+        let digit = |top: u32| {
+            let (mut q, mut r) = (u64::from(top / high), u64::from(top % high));
+            let top = u64::from(top);
+            while q >= B || q * low > B * r {
+                q -= 1;
+                r += u64::from(high);
+                if r >= B {
+                    break;
+                }
+            }
+            // The remainder is below the divisor: 32 bits.
+            (q, (top * B - q * u64::from(v)) as u32)
+        };
+        // The dividend 2^63 is the digits [2^31 : 0 : 0] in base 2^16 over a 32-bit divisor.
+        let (q1, rest) = digit(1 << 31);
+        let (q0, _) = digit(rest);
+        (q1 * B + q0) as u32
     }
 
     /// The signed low and high halfwords of `word`.

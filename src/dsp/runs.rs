@@ -1,5 +1,6 @@
-//! Kernels over runs of `i16` values, the innermost operations of the LK window loops: dot
-//! products of one run with three others, the template's window sums, the sum of a run, and
+//! Kernels over runs of `i16` values, the innermost operations of the LK window loops: the
+//! copy of a frame block into `i16`, a template sampled between pixels with its derivatives,
+//! the template's window sums, the correlations of a next-frame block with the template, and
 //! rows of bilinear samples.
 //!
 //! Each kernel has one definition, in [`portable`]: plain Rust built on [`super::smlad`], which a
@@ -15,6 +16,12 @@
 //!
 //! Other targets (AArch64 among them) run the portable code, which LLVM vectorises where it
 //! can.
+//!
+//! The kernels that take a whole window (`widen_rows`, `sampled_template`, `correlate`, here
+//! and in SSE2) index and count with plain arithmetic, as `lk`'s loops do: their indices are
+//! bounded by the window shapes LK validates (at most 66 x 66 values) and checked against the
+//! buffers before use, and their sums by the widths `lk` proves (`correlation.rs`,
+//! `template.rs`); the arithmetic lint is off for those functions only.
 
 use super::smlad;
 
@@ -86,59 +93,6 @@ pub(crate) fn rescale(s: i32) -> i16 {
     value
 }
 
-/// `[Σ a b0, Σ a b1, Σ a b2]` over runs of one length, modulo 2^32: each value of `a` loaded
-/// once for three multiply-accumulates.
-#[inline(always)]
-pub(crate) fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i32; 3] {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::dot3(a, b)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::dot3(a, b)
-    }
-}
-
-/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy]` over runs of one length, modulo 2^32.
-#[inline(always)]
-pub(crate) fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::gradient_sums(gx, gy)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::gradient_sums(gx, gy)
-    }
-}
-
-/// `[Σ i, Σ i², Σ i gx, Σ i gy]` over runs of one length, modulo 2^32.
-#[inline(always)]
-pub(crate) fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::intensity_sums(i, gx, gy)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::intensity_sums(i, gx, gy)
-    }
-}
-
-/// `Σ v`, modulo 2^32.
-#[inline(always)]
-pub(crate) fn sum(v: &[i16]) -> i32 {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    {
-        super::sse2::sum(v)
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        portable::sum(v)
-    }
-}
-
 /// One row of [`bilinear`] samples: `out[k]` from `top[k]`, `top[k + 1]`, `bottom[k]` and
 /// `bottom[k + 1]`, for every `k` that both rows reach (rows of `out.len() + 1` values fill
 /// `out`; samples they do not reach are left alone).
@@ -154,39 +108,91 @@ pub(crate) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
     }
 }
 
-/// [`bilinear_row`] for a row of `inner.len() + 2` samples that also stores the samples but
-/// the first and the last in `inner` (a template patch row and its template row).
+/// The template of a window between pixels, from the `(win + 3)` square of pixels `source`
+/// under its patch (rows `win + 3` apart, values `0..=255` on every LK call): the patch, the
+/// `(win + 2)` square of [`bilinear`] samples with weights `w`, in `patch` (rows `win + 2` apart),
+/// its inner `win` square, the template's intensities, in `intensity`, and the [`scharr_row`]
+/// derivatives of that square in `dx` and `dy` (window buffers: `win` rows of `win` values,
+/// `pitch` apart). The values between rows (each row's padding) are scratch as well: the
+/// caller clears them. So is the patch: the SSE2 code keeps it in registers.
 #[inline(always)]
-pub(crate) fn bilinear_row_twice(
+pub(crate) fn sampled_template(
     w: &[i32; 4],
-    top: &[i16],
-    bottom: &[i16],
-    out: &mut [i16],
-    inner: &mut [i16],
+    source: &[i16],
+    patch: &mut [i16],
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
 ) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     {
-        super::sse2::bilinear_row_twice(w, top, bottom, out, inner);
+        super::sse2::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     {
-        portable::bilinear_row_twice(w, top, bottom, out, inner);
+        portable::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
     }
 }
 
-/// One row of Scharr derivatives from three rows of samples (`up`, `mid`, `down`): `dx[k]` and
-/// `dy[k]` are those of the sample at column `k + 1`, the [`rescale`]d horizontal and vertical
-/// Scharr sums, for every `k` the rows reach (rows of `dx.len() + 2` values fill `dx` and `dy`;
-/// outputs they do not reach are left alone).
+/// Copies the rows of `cols` pixels of a frame block (`stride` apart, the last ending at the
+/// block's end, as `ImageView::block` gives them) into `out` as `i16`, `cols` apart, for as
+/// many rows as both hold.
 #[inline(always)]
-pub(crate) fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i16]) {
+pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     {
-        super::sse2::scharr_row(up, mid, down, dx, dy);
+        super::sse2::widen_rows(block, stride, cols, out);
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     {
-        portable::scharr_row(up, mid, down, dx, dy);
+        portable::widen_rows(block, stride, cols, out);
+    }
+}
+
+/// Template values summed in 32 bits before widening: a product of two is at most
+/// `8160^2 = 66_585_600` for intensities of 8-bit pixels, 64 of them below `2^32` (`ΣI²`,
+/// read unsigned) and the signed sums below `2^31`.
+pub(crate) const TEMPLATE_CHUNK: usize = 64;
+
+/// The template's window sums over its intensity and gradient buffers (padding zero):
+/// `[Σ gx², Σ gx gy, Σ gy², Σ gx, Σ gy, Σ i, Σ i², Σ i gx, Σ i gy]`, each summed in 32 bits over
+/// [`TEMPLATE_CHUNK`] values at a time, wrapping, and the chunks in 64 bits (`Σ i²`'s 32 bits
+/// read unsigned, the others signed).
+#[inline(always)]
+pub(crate) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        super::sse2::template_sums(intensity, dx, dy)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        portable::template_sums(intensity, dx, dy)
+    }
+}
+
+/// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31` for
+/// pixels and template values of 8-bit pixels (widths in `lk`'s `correlation.rs`).
+pub(crate) const CORRELATION_CHUNK: usize = 1024;
+
+/// The correlations of an LK window's source block with the template's three buffers
+/// `t = [I, Ix, Iy]`, for each bilinear neighbour `q` (the pixel, right, below, below-right):
+/// `[ΣP, ΣP·I, ΣP·Ix, ΣP·Iy]` over the window.
+///
+/// `block` is the `(win + 1)` square of pixels, rows `pitch = win + 1` apart, and a value of
+/// slack; each template buffer holds `win` rows of `pitch` values whose last (padding) value
+/// is zero. Neighbour `q`'s pixels under the window are then the run of the block starting at
+/// `[0, 1, pitch, pitch + 1][q]`, as long as a template buffer, and each product sum is a flat
+/// dot product (the padding drops the run's extra column). Products are summed in 32 bits
+/// over [`CORRELATION_CHUNK`] values at a time, wrapping, and the chunks in 64 bits; `ΣP`
+/// exactly (at most `64^2 * 32767 < 2^31`).
+#[inline(always)]
+pub(crate) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4]; 4] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        super::sse2::correlate(block, pitch, t)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        portable::correlate(block, pitch, t)
     }
 }
 
@@ -308,6 +314,189 @@ pub(crate) mod portable {
         }
     }
 
+    /// [`super::template_sums`] in two passes of dual multiply-accumulates over each chunk
+    /// (even in length, or ending a buffer whose rows end in their zero padding column, so its
+    /// values pair up): the gradients' sums and products, then the intensities' with
+    /// themselves and the gradients. A plain sum is a multiply-accumulate with ones.
+    #[inline(never)]
+    pub(crate) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+        let mut s = [0i64; 9];
+        let chunk = super::TEMPLATE_CHUNK;
+        let rows = intensity
+            .chunks(chunk)
+            .zip(dx.chunks(chunk).zip(dy.chunks(chunk)));
+        for (i, (gx, gy)) in rows {
+            let [gxx, gxy, gyy, sx, sy] = gradient_sums(gx, gy);
+            let [si, sii, six, siy] = intensity_sums(i, gx, gy);
+            // `Σ i²` of a chunk, read unsigned.
+            let sii = sii as u32;
+            let sums = [
+                i64::from(gxx),
+                i64::from(gxy),
+                i64::from(gyy),
+                i64::from(sx),
+                i64::from(sy),
+                i64::from(si),
+                i64::from(sii),
+                i64::from(six),
+                i64::from(siy),
+            ];
+            for (total, v) in s.iter_mut().zip(sums) {
+                *total = total.wrapping_add(v);
+            }
+        }
+        s
+    }
+
+    /// [`super::correlate`]: `ΣP` of each neighbour from the block's total, first and last
+    /// rows and columns, then each neighbour's run against the three buffers by [`dot3`].
+    #[allow(clippy::arithmetic_side_effects)]
+    #[inline(never)]
+    pub(crate) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4]; 4] {
+        let p = pitch;
+        let n = t[0].len();
+        let mut sums = pixel_sums(block, pitch).map(|plain| [plain, 0, 0, 0]);
+        for (sums, offset) in sums.iter_mut().zip([0, 1, p, p + 1]) {
+            // offset + n <= p + 1 + win p = the block's (win + 1) p + 1.
+            let run = block.get(offset..offset + n);
+            debug_assert!(run.is_some(), "a run past the block");
+            [sums[1], sums[2], sums[3]] = chunked_dot3(run.unwrap_or(&[]), t);
+        }
+        sums
+    }
+
+    /// `ΣP` of each neighbour over the window, from the block's total, its first and last rows
+    /// and columns: the samples' own pixels are the block without its last row and column,
+    /// their right neighbours the block without its last row and first column, and so on.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn pixel_sums(block: &[i16], pitch: usize) -> [i64; 4] {
+        let (p, win) = (pitch, pitch.saturating_sub(1));
+        // The block is the (win + 1)-square, p = win + 1 apart, and a value of slack.
+        let square = block.get(..p * p).unwrap_or(&[]);
+        // The block's total by pairs; its first and last columns by one load a row.
+        let total = sum(square);
+        let (mut left, mut right) = (0, 0);
+        for row in square.chunks_exact(p.max(1)) {
+            left += row.first().map_or(0, |&v| i32::from(v));
+            right += row.last().map_or(0, |&v| i32::from(v));
+        }
+        let row_sum = |r: usize| sum(square.get(r * p..(r + 1) * p).unwrap_or(&[]));
+        let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
+        let (top, bottom) = (row_sum(0), row_sum(win));
+        let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
+        [
+            without(bottom, right, win * p + win),
+            without(bottom, left, win * p),
+            without(top, right, win),
+            without(top, left, 0),
+        ]
+        .map(i64::from)
+    }
+
+    /// `[Σ a[k] b0[k], Σ a[k] b1[k], Σ a[k] b2[k]]` by [`dot3`] over
+    /// [`super::CORRELATION_CHUNK`] values at a time, widened between chunks.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn chunked_dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
+        let mut total = [0i64; 3];
+        for (k, a) in a.chunks(super::CORRELATION_CHUNK).enumerate() {
+            let start = k * super::CORRELATION_CHUNK;
+            // `a` is a window run and each `b` a window buffer: the same length.
+            let part = b.map(|v| v.get(start..start + a.len()).unwrap_or(&[]));
+            for (t, s) in total.iter_mut().zip(dot3(a, part)) {
+                *t += i64::from(s);
+            }
+        }
+        total
+    }
+
+    /// [`super::widen_rows`]: rows of the common windows' lengths unrolled. Bare-metal
+    /// targets, short of flash, unroll only the lengths of the flight presets' 7 and 9 px
+    /// windows, not those of the 21 px default.
+    #[inline(always)]
+    pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+        match cols {
+            8 => copy_rows::<8>(block, stride, out),
+            10 => copy_rows::<10>(block, stride, out),
+            12 => copy_rows::<12>(block, stride, out),
+            #[cfg(not(target_os = "none"))]
+            22 => copy_rows::<22>(block, stride, out),
+            #[cfg(not(target_os = "none"))]
+            24 => copy_rows::<24>(block, stride, out),
+            _ => copy_any_rows(block, stride, cols, out),
+        }
+    }
+
+    /// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`cols` apart).
+    #[inline(never)]
+    fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+        for (dst, src) in out
+            .chunks_exact_mut(cols.max(1))
+            .zip(block.chunks(stride.max(1)))
+        {
+            dst.iter_mut()
+                .zip(src)
+                .for_each(|(d, &s)| *d = i16::from(s));
+        }
+    }
+
+    /// Copies rows of `N` pixels, `stride` apart in `block`, into `out` (`N` apart).
+    fn copy_rows<const N: usize>(block: &[u8], stride: usize, out: &mut [i16]) {
+        for (dst, src) in out.chunks_exact_mut(N).zip(block.chunks(stride.max(1))) {
+            // `block` is a frame block of `N`-pixel rows (its last row ends at its last pixel),
+            // so every chunk holds `N` pixels and every `out` chunk is `N` long.
+            let (Ok(dst), Some(Ok(src))) = (
+                <&mut [i16; N]>::try_from(dst),
+                src.get(..N).map(<&[u8; N]>::try_from),
+            ) else {
+                debug_assert!(
+                    src.len() >= N,
+                    "a block row of {} pixels, {N} wanted",
+                    src.len()
+                );
+                return;
+            };
+            *dst = src.map(i16::from);
+        }
+    }
+
+    /// [`super::sampled_template`], row by row: the patch's rows of samples (the inner ones
+    /// stored in `intensity` as well), then the derivatives' rows. The window side is the
+    /// number of `intensity` rows (`intensity.len() / pitch`).
+    #[allow(clippy::arithmetic_side_effects)]
+    #[inline(never)]
+    pub(crate) fn sampled_template(
+        w: &[i32; 4],
+        source: &[i16],
+        patch: &mut [i16],
+        pitch: usize,
+        [intensity, dx, dy]: [&mut [i16]; 3],
+    ) {
+        let pitch = pitch.max(1);
+        let win = intensity.len() / pitch;
+        let (side, n) = (win + 2, win + 3);
+        let source = source.get(..n * n).unwrap_or(source);
+        let sources = source.chunks(n).zip(source.chunks(n).skip(1));
+        let mut inner = intensity
+            .chunks_exact_mut(pitch)
+            .map(|row| row.get_mut(..win).unwrap_or(&mut []));
+        for (r, ((top, bottom), out)) in sources.zip(patch.chunks_exact_mut(side)).enumerate() {
+            match if r == 0 { None } else { inner.next() } {
+                Some(inner) => bilinear_row_twice(w, top, bottom, out, inner),
+                None => bilinear_row(w, top, bottom, out),
+            }
+        }
+        let patch_rows = patch.chunks_exact(side);
+        let below = patch_rows.clone().skip(1).zip(patch_rows.clone().skip(2));
+        let outputs = dx.chunks_exact_mut(pitch).zip(dy.chunks_exact_mut(pitch));
+        for ((dx_row, dy_row), (up, (mid, down))) in outputs.zip(patch_rows.zip(below)) {
+            let (Some(dx_row), Some(dy_row)) = (dx_row.get_mut(..win), dy_row.get_mut(..win))
+            else {
+                continue;
+            };
+            scharr_row(up, mid, down, dx_row, dy_row);
+        }
+    }
+
     /// [`super::bilinear_row_twice`]: each inner sample is stored twice, which costs less
     /// than copying the row afterwards.
     #[inline(never)]
@@ -383,7 +572,7 @@ mod tests {
     const LENGTHS: [usize; 14] = [0, 1, 2, 7, 8, 9, 15, 16, 17, 63, 64, 90, 462, 1024];
 
     #[test]
-    fn dot3_agrees_with_the_reference() {
+    fn dot3_is_the_three_dot_products_modulo_2_32() {
         let mut v = Values(0x1234_5678);
         for _ in 0..40 {
             for len in LENGTHS {
@@ -399,17 +588,7 @@ mod tests {
                     s as i32
                 });
                 assert_eq!(portable::dot3(&a[..len], b), exact, "{len}");
-                assert_eq!(dot3(&a[..len], b), exact, "{len}");
             }
-        }
-        // The one pair that overflows SMLAD and PMADDWD alike, and runs of unequal lengths.
-        let min = [i16::MIN; 24];
-        assert_eq!(dot3(&min, [&min; 3]), portable::dot3(&min, [&min; 3]));
-        let a = v.run::<40>(40);
-        let b = v.run::<40>(40);
-        for (la, lb) in [(40, 33), (17, 40), (9, 8), (0, 5)] {
-            let b = [&b[..lb], &b[..la.min(lb)], &b[..]];
-            assert_eq!(dot3(&a[..la], b), portable::dot3(&a[..la], b), "{la} {lb}");
         }
     }
 
@@ -440,18 +619,38 @@ mod tests {
                     wide(&|k| t(k) * y(k)),
                 ];
                 assert_eq!(portable::gradient_sums(gx, gy), gradients, "{len}");
-                assert_eq!(gradient_sums(gx, gy), gradients, "{len}");
                 assert_eq!(portable::intensity_sums(i, gx, gy), intensities, "{len}");
-                assert_eq!(intensity_sums(i, gx, gy), intensities, "{len}");
                 assert_eq!(portable::sum(i), intensities[0], "{len}");
-                assert_eq!(sum(i), intensities[0], "{len}");
+                assert_eq!(
+                    template_sums(i, gx, gy),
+                    portable::template_sums(i, gx, gy),
+                    "{len}"
+                );
             }
         }
+        // Buffers of unequal lengths, and windows' buffers (chunks of 64, the last shorter) of
+        // template values at their extremes.
         let a = v.run::<30>(30);
         for (la, lb) in [(30, 21), (9, 30), (3, 0)] {
             let (x, y) = (&a[..la], &a[..lb]);
-            assert_eq!(gradient_sums(x, y), portable::gradient_sums(x, y));
-            assert_eq!(intensity_sums(y, x, x), portable::intensity_sums(y, x, x));
+            assert_eq!(template_sums(y, x, x), portable::template_sums(y, x, x));
+        }
+        for len in [90, 110, 462, 1056, 3969] {
+            let mut buffers = [[0i16; 3969]; 3];
+            for (b, extreme) in buffers.iter_mut().zip([8160, 4080, -4080]) {
+                for (k, value) in b.iter_mut().take(len).enumerate() {
+                    *value = if k % 3 == 0 {
+                        extreme
+                    } else {
+                        v.next() & 0x0FFF
+                    };
+                }
+            }
+            let [i, x, y] = buffers.each_ref().map(|b| &b[..len]);
+            let sums = template_sums(i, x, y);
+            assert_eq!(sums, portable::template_sums(i, x, y), "{len}");
+            let exact: i64 = i.iter().map(|&v| i64::from(v) * i64::from(v)).sum();
+            assert_eq!(sums[6], exact, "{len}");
         }
     }
 
@@ -503,55 +702,134 @@ mod tests {
                     portable::bilinear_row(&w, t, b, &mut reference[..n]);
                     assert_eq!(fast, reference, "{w:?} {n} {lt} {lb}");
                     if n >= 2 {
-                        let (mut fi, mut ri) = ([-1i16; 80], [-1i16; 80]);
-                        let (mut fast, mut reference) = ([-1i16; 80], [-1i16; 80]);
-                        bilinear_row_twice(&w, t, b, &mut fast[..n], &mut fi[..n - 2]);
-                        portable::bilinear_row_twice(
-                            &w,
-                            t,
-                            b,
-                            &mut reference[..n],
-                            &mut ri[..n - 2],
-                        );
-                        assert_eq!((fast, fi), (reference, ri), "{w:?} {n} {lt} {lb}");
+                        // The portable row and inner row: the row, and its samples but the
+                        // first and the last again.
+                        let (mut row, mut inner) = ([-1i16; 80], [-1i16; 80]);
+                        portable::bilinear_row_twice(&w, t, b, &mut row[..n], &mut inner[..n - 2]);
+                        assert_eq!(row, reference, "{w:?} {n} {lt} {lb}");
+                        let reached = (lt.min(lb).min(80).saturating_sub(1)).clamp(1, n - 1);
+                        assert_eq!(inner[..reached - 1], row[1..reached], "{w:?} {n} {lt} {lb}");
                     }
                 }
             }
         }
     }
 
+    /// Every window side the SSE2 template code takes in its two ways (two registers a patch
+    /// row, and column blocks) and those it leaves to the portable code, on pixels and on any
+    /// `i16`, with LK's weights and others: the same template values as the portable rows.
     #[test]
-    fn scharr_rows_agree_with_the_reference() {
-        let mut v = Values(4242);
-        for round in 0..600 {
-            // Samples of 8-bit pixels (grey x 32), and every other round any `i16`.
-            let sample = |v: &mut Values| {
-                if round % 2 == 0 {
-                    (v.next() & 0xFF) * 32
-                } else {
-                    v.next()
+    fn sampled_templates_agree_with_the_reference() {
+        const MAX: usize = 26;
+        const LEN: usize = (MAX + 3) * (MAX + 3) + 8;
+        let mut v = Values(0x7E57);
+        for round in 0..60 {
+            for win in [3, 5, 7, 8, 9, 10, 11, 13, 14, 15, 16, 17, 21, 23, 26] {
+                let n = win + 3;
+                let w = weights(&mut v);
+                let mut source = [0i16; LEN];
+                for (k, s) in source.iter_mut().enumerate() {
+                    *s = match round % 4 {
+                        // Pixels, with the slack past the square anything.
+                        0 | 1 if k < n * n => v.next() & 0xFF,
+                        2 if k < n * n => [0, 255][k % 2],
+                        // One value outside the pixels' range, or any i16.
+                        3 if k == (round * 7) % (n * n) => 256,
+                        _ => v.next(),
+                    };
                 }
-            };
-            let rows: [[i16; 70]; 3] =
-                core::array::from_fn(|_| core::array::from_fn(|_| sample(&mut v)));
-            for n in [0usize, 1, 2, 5, 7, 8, 9, 10, 15, 16, 17, 21, 31, 63] {
-                for (lu, lm, ld) in [
-                    (n + 2, n + 2, n + 2),
-                    (n + 5, n + 3, n + 9),
-                    (n + 1, n + 2, n + 2),
-                    (n / 2, n + 2, n),
-                ] {
-                    let (u, m, d) = (
-                        &rows[0][..lu.min(70)],
-                        &rows[1][..lm.min(70)],
-                        &rows[2][..ld.min(70)],
+                for (pitch, len) in [(win, n * n), (win + 1, n * n + 8), (win + 3, LEN)] {
+                    let out = || [[-1i16; MAX * (MAX + 3)]; 3];
+                    let (mut fast, mut reference) = (out(), out());
+                    let mut patch = [0i16; (MAX + 2) * (MAX + 2)];
+                    let patch = &mut patch[..(win + 2) * (win + 2)];
+                    let m = win * pitch;
+                    let [i, x, y] = &mut fast;
+                    sampled_template(
+                        &w,
+                        &source[..len],
+                        patch,
+                        pitch,
+                        [&mut i[..m], &mut x[..m], &mut y[..m]],
                     );
-                    let mut fast = ([-1i16; 70], [-1i16; 70]);
-                    let mut reference = ([-1i16; 70], [-1i16; 70]);
-                    scharr_row(u, m, d, &mut fast.0[..n], &mut fast.1[..n]);
-                    portable::scharr_row(u, m, d, &mut reference.0[..n], &mut reference.1[..n]);
-                    assert_eq!(fast, reference, "{n} {lu} {lm} {ld}");
+                    let [i, x, y] = &mut reference;
+                    portable::sampled_template(
+                        &w,
+                        &source[..len],
+                        patch,
+                        pitch,
+                        [&mut i[..m], &mut x[..m], &mut y[..m]],
+                    );
+                    for (f, r) in fast.iter().zip(&reference) {
+                        for row in 0..win {
+                            let at = row * pitch..row * pitch + win;
+                            assert_eq!(
+                                f[at.clone()],
+                                r[at],
+                                "{w:?} win {win} pitch {pitch} row {row}"
+                            );
+                        }
+                    }
                 }
+            }
+        }
+    }
+
+    /// Windows whose runs fit one chunk and windows of several, on pixels and on any `i16`: the
+    /// same correlations as the portable code, whose pixel sums are the window's.
+    #[test]
+    fn correlations_agree_with_the_reference() {
+        const MAX: usize = 63;
+        let mut v = Values(0xC0DE);
+        for round in 0..12 {
+            for win in [1, 2, 3, 7, 8, 9, 15, 21, 31, 32, 40, MAX] {
+                let p = win + 1;
+                let n = win * p;
+                let mut block = [0i16; (MAX + 1) * (MAX + 1) + 1];
+                let mut t = [[0i16; MAX * (MAX + 1)]; 3];
+                for b in block.iter_mut().take(p * p + 1) {
+                    *b = if round % 2 == 0 {
+                        v.next() & 0xFF
+                    } else {
+                        v.next()
+                    };
+                }
+                for buf in t.iter_mut() {
+                    for (k, value) in buf.iter_mut().take(n).enumerate() {
+                        *value = if k % p == win { 0 } else { v.next() };
+                    }
+                }
+                let t = t.each_ref().map(|b| &b[..n]);
+                let fast = correlate(&block[..p * p + 1], p, t);
+                let reference = portable::correlate(&block[..p * p + 1], p, t);
+                assert_eq!(fast, reference, "win {win} round {round}");
+                let at = |r: usize, c: usize| i64::from(block[r * p + c]);
+                for (q, (dr, dc)) in [(0, 0), (0, 1), (1, 0), (1, 1)].into_iter().enumerate() {
+                    let plain: i64 = (0..win)
+                        .flat_map(|r| (0..win).map(move |c| (r, c)))
+                        .map(|(r, c)| at(r + dr, c + dc))
+                        .sum();
+                    assert_eq!(fast[q][0], plain, "win {win} neighbour {q}");
+                }
+            }
+        }
+    }
+
+    /// Blocks of every width up to 40 from frames of several strides: the same rows as the
+    /// portable copy, and nothing written past them.
+    #[test]
+    fn widened_rows_agree_with_the_reference() {
+        let mut v = Values(0xF00D);
+        let frame: [u8; 64 * 48] = core::array::from_fn(|_| v.next() as u8);
+        for cols in 1..=40 {
+            for (stride, rows) in [(cols, 1), (cols, 5), (64, 12), (cols + 3, 9)] {
+                let span = (rows - 1) * stride + cols;
+                let block = &frame[7..7 + span];
+                let (mut fast, mut reference) = ([-1i16; 600], [-1i16; 600]);
+                widen_rows(block, stride, cols, &mut fast[..rows * cols + 3]);
+                portable::widen_rows(block, stride, cols, &mut reference[..rows * cols + 3]);
+                assert_eq!(fast, reference, "{cols} {stride} {rows}");
+                assert!(fast[rows * cols..].iter().all(|&x| x == -1));
             }
         }
     }

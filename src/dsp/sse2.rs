@@ -28,13 +28,15 @@
 // `rust-version` is 1.85): their `unsafe` blocks are needed on old compilers only.
 #![allow(unused_unsafe)]
 
-use super::runs::{portable, SAMPLE_BITS, WEIGHT_BITS};
+use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
-    __m128i, _mm_add_epi16, _mm_add_epi32, _mm_and_si128, _mm_loadu_si128, _mm_madd_epi16,
-    _mm_or_si128, _mm_packs_epi32, _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32,
-    _mm_setzero_si128, _mm_slli_epi16, _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32,
-    _mm_srli_epi16, _mm_srli_si128, _mm_storel_epi64, _mm_storeu_si128, _mm_unpackhi_epi16,
-    _mm_unpacklo_epi16,
+    __m128i, _mm_add_epi16, _mm_add_epi32, _mm_and_si128, _mm_cmpeq_epi16, _mm_loadl_epi64,
+    _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
+    _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
+    _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
+    _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
+    _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
+    _mm_unpacklo_epi64, _mm_unpacklo_epi8,
 };
 
 /// `i16` values in a register.
@@ -143,96 +145,194 @@ fn last_masked(run: &[i16]) -> Option<__m128i> {
     Some(and(last(run)?, load_at(&MASKS, run.len() % LANES)?))
 }
 
-/// [`super::runs::dot3`].
+/// [`super::runs::correlate`] in two passes over the window's runs, one for the neighbours on
+/// the window's rows (offsets 0 and 1) and one for those on the rows below (`pitch` and
+/// `pitch + 1`): each template block loaded once a pass for the six products of two runs, and
+/// the first run of each pass summed as well. `ΣP` of each neighbour is then its row run's
+/// sum without the run's extra column (the block's last column for the pixel and the one
+/// below, its first for the right neighbours). Products wrap in 32-bit lanes over chunks of
+/// [`CORRELATION_CHUNK`] values, as the portable code's do.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
-pub(super) fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i32; 3] {
-    if a.len() < LANES || b.iter().any(|b| b.len() != a.len()) {
-        return portable::dot3(a, b);
+pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4]; 4] {
+    let n = t[0].len();
+    let p = pitch;
+    let win = p.saturating_sub(1);
+    let shaped = win >= 1
+        && n >= LANES
+        && n == win * p
+        && t.iter().all(|b| b.len() == n)
+        && block.len() > p * p;
+    if !shaped {
+        return portable::correlate(block, p, t);
     }
-    let [b0, b1, b2] = b;
-    let mut acc = [zero(); 3];
-    let mut add3 = |x, [y0, y1, y2]: [__m128i; 3]| {
-        acc = [
-            add(acc[0], madd(x, y0)),
-            add(acc[1], madd(x, y1)),
-            add(acc[2], madd(x, y2)),
-        ];
-    };
-    for ((x, y0), (y1, y2)) in whole(a).zip(whole(b0)).zip(whole(b1).zip(whole(b2))) {
-        add3(x, [y0, y1, y2]);
-    }
-    // `a`'s last block masked: the products of the lanes counted already are zero.
-    if let (Some(x), Some(y0), Some(y1), Some(y2)) = (last_masked(a), last(b0), last(b1), last(b2))
-    {
-        add3(x, [y0, y1, y2]);
-    }
-    acc.map(|acc| lanes_sum(acc, 0))
-}
-
-/// [`super::runs::gradient_sums`].
-#[inline(never)]
-pub(super) fn gradient_sums(gx: &[i16], gy: &[i16]) -> [i32; 5] {
-    if gx.len() < LANES || gx.len() != gy.len() {
-        return portable::gradient_sums(gx, gy);
-    }
-    let ones = pairs_of(1, 1);
-    let mut acc = [zero(); 5];
-    let mut add5 = |x, y| {
-        let terms = [
-            madd(x, x),
-            madd(x, y),
-            madd(y, y),
-            madd(x, ones),
-            madd(y, ones),
-        ];
-        for (acc, term) in acc.iter_mut().zip(terms) {
-            *acc = add(*acc, term);
+    let mut sums = [[0i64; 4]; 4];
+    let mut runs = [0i32; 2];
+    for start in (0..n).step_by(CORRELATION_CHUNK) {
+        let len = (n - start).min(CORRELATION_CHUNK);
+        let part = t.map(|v| v.get(start..start + len).unwrap_or(&[]));
+        for (pass, base) in [0, p].into_iter().enumerate() {
+            let from = base + start;
+            let Some(([first, second], sum)) = block
+                .get(from..from + len + 1)
+                .and_then(|run| correlate_pass(run, part))
+            else {
+                return portable::correlate(block, p, t);
+            };
+            let pair = sums.iter_mut().skip(2 * pass).zip([first, second]);
+            for (sums, dots) in pair {
+                for (s, d) in sums.iter_mut().skip(1).zip(dots) {
+                    *s += i64::from(d);
+                }
+            }
+            if let Some(run) = runs.get_mut(pass) {
+                *run = run.wrapping_add(sum);
+            }
         }
-    };
-    for (x, y) in whole(gx).zip(whole(gy)) {
-        add5(x, y);
     }
-    if let (Some(x), Some(y)) = (last_masked(gx), last_masked(gy)) {
-        add5(x, y);
+    // The block's first and last columns over the rows of each pass.
+    let column = |r: usize, c: usize| block.get(r * p + c).map_or(0, |&v| i32::from(v));
+    let (mut left, mut right) = ([0i32; 2], [0i32; 2]);
+    for r in 0..win {
+        left[0] += column(r, 0);
+        right[0] += column(r, win);
+        left[1] += column(r + 1, 0);
+        right[1] += column(r + 1, win);
     }
-    acc.map(|acc| lanes_sum(acc, 0))
+    sums[0][0] = i64::from(runs[0] - right[0]);
+    sums[1][0] = i64::from(runs[0] - left[0]);
+    sums[2][0] = i64::from(runs[1] - right[1]);
+    sums[3][0] = i64::from(runs[1] - left[1]);
+    sums
 }
 
-/// [`super::runs::intensity_sums`].
-#[inline(never)]
-pub(super) fn intensity_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i32; 4] {
-    if i.len() < LANES || gx.len() != i.len() || gy.len() != i.len() {
-        return portable::intensity_sums(i, gx, gy);
+/// The dot products of the runs `run[..len]` and `run[1..len + 1]` with the three template
+/// runs of length `len` (at least 8), and the sum of the first run, wrapping; `None` for other
+/// shapes.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn correlate_pass(run: &[i16], t: [&[i16]; 3]) -> Option<([[i32; 3]; 2], i32)> {
+    let len = t[0].len();
+    let (first, second) = (run.get(..len)?, run.get(1..len + 1)?);
+    if len < LANES || t.iter().any(|v| v.len() != len) {
+        return None;
     }
     let ones = pairs_of(1, 1);
-    let mut acc = [zero(); 4];
-    let mut add4 = |v, x, y| {
-        let terms = [madd(v, ones), madd(v, v), madd(v, x), madd(v, y)];
-        for (acc, term) in acc.iter_mut().zip(terms) {
-            *acc = add(*acc, term);
+    let mut acc = [[zero(); 3]; 2];
+    let mut total = zero();
+    let mut add_block = |x0, x1, [y0, y1, y2]: [__m128i; 3], x0_masked| {
+        for (acc, x) in acc.iter_mut().zip([x0, x1]) {
+            *acc = [
+                add(acc[0], madd(x, y0)),
+                add(acc[1], madd(x, y1)),
+                add(acc[2], madd(x, y2)),
+            ];
         }
+        total = add(total, madd(x0_masked, ones));
     };
-    for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
-        add4(v, x, y);
+    let [t0, t1, t2] = t;
+    let blocks = whole(first)
+        .zip(whole(second))
+        .zip(whole(t0).zip(whole(t1)).zip(whole(t2)));
+    for ((x0, x1), ((y0, y1), y2)) in blocks {
+        add_block(x0, x1, [y0, y1, y2], x0);
     }
-    // Every term has a factor from `i`: its mask is enough.
-    if let (Some(v), Some(x), Some(y)) = (last_masked(i), last(gx), last(gy)) {
-        add4(v, x, y);
+    // The last block, overlapping: the template values counted already masked to zero.
+    if let (Some(x0), Some(x0_masked), Some(x1), Some(y0), Some(y1), Some(y2)) = (
+        last(first),
+        last_masked(first),
+        last(second),
+        last_masked(t0),
+        last_masked(t1),
+        last_masked(t2),
+    ) {
+        add_block(x0, x1, [y0, y1, y2], x0_masked);
     }
-    acc.map(|acc| lanes_sum(acc, 0))
+    let dots = acc.map(|acc| acc.map(|a| lanes_sum(a, 0)));
+    Some((dots, lanes_sum(total, 0)))
 }
 
-/// [`super::runs::sum`].
+/// [`super::runs::template_sums`]: the nine products of each block of eight values in one pass
+/// (the last block of a chunk that is not a multiple of eight long overlapping the one
+/// before, masked), and the lanes of each chunk's sums added at its end.
 #[inline(never)]
-pub(super) fn sum(v: &[i16]) -> i32 {
-    if v.len() < LANES {
-        return portable::sum(v);
+pub(super) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 9] {
+    let n = intensity.len();
+    if n < LANES || dx.len() != n || dy.len() != n {
+        return portable::template_sums(intensity, dx, dy);
     }
     let ones = pairs_of(1, 1);
-    let acc = whole(v)
-        .chain(last_masked(v))
-        .fold(zero(), |acc, x| add(acc, madd(x, ones)));
-    lanes_sum(acc, 0)
+    let mut s = [0i64; 9];
+    let chunks = intensity
+        .chunks(TEMPLATE_CHUNK)
+        .zip(dx.chunks(TEMPLATE_CHUNK).zip(dy.chunks(TEMPLATE_CHUNK)));
+    for (i, (gx, gy)) in chunks {
+        if i.len() < LANES {
+            let part = portable::template_sums(i, gx, gy);
+            for (total, v) in s.iter_mut().zip(part) {
+                *total = total.wrapping_add(v);
+            }
+            continue;
+        }
+        let mut acc = [zero(); 9];
+        let mut add9 = |v, x, y| {
+            let terms = [
+                madd(x, x),
+                madd(x, y),
+                madd(y, y),
+                madd(x, ones),
+                madd(y, ones),
+                madd(v, ones),
+                madd(v, v),
+                madd(v, x),
+                madd(v, y),
+            ];
+            for (acc, term) in acc.iter_mut().zip(terms) {
+                *acc = add(*acc, term);
+            }
+        };
+        for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
+            add9(v, x, y);
+        }
+        if let (Some(v), Some(x), Some(y)) = (last_masked(i), last_masked(gx), last_masked(gy)) {
+            add9(v, x, y);
+        }
+        let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
+        let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
+        let widened = [
+            i64::from(first[0]),
+            i64::from(first[1]),
+            i64::from(first[2]),
+            i64::from(first[3]),
+            i64::from(second[0]),
+            i64::from(second[1]),
+            // `Σ i²` of a chunk, read unsigned.
+            i64::from(second[2] as u32),
+            i64::from(second[3]),
+            i64::from(lanes_sum(a8, 0)),
+        ];
+        for (total, v) in s.iter_mut().zip(widened) {
+            *total = total.wrapping_add(v);
+        }
+    }
+    s
+}
+
+/// The sums of the four lanes of each of four registers, wrapping: a transpose by unpacks,
+/// added as it goes.
+#[inline(always)]
+fn lane_sums4([a, b, c, d]: [__m128i; 4]) -> [i32; 4] {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let sums = unsafe {
+        // (a0 + a2, b0 + b2, a1 + a3, b1 + b3) and the same for c and d.
+        let ab = add(_mm_unpacklo_epi32(a, b), _mm_unpackhi_epi32(a, b));
+        let cd = add(_mm_unpacklo_epi32(c, d), _mm_unpackhi_epi32(c, d));
+        add(_mm_unpacklo_epi64(ab, cd), _mm_unpackhi_epi64(ab, cd))
+    };
+    let mut lanes = [0i32; 4];
+    // SAFETY: writes the 16 bytes of `lanes`, with no alignment needed (module docs).
+    unsafe { _mm_storeu_si128(lanes.as_mut_ptr().cast(), sums) };
+    lanes
 }
 
 /// `row` from `start` on (empty past its end).
@@ -322,114 +422,346 @@ pub(super) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
     }
 }
 
-/// [`super::runs::bilinear_row_twice`]: the row, and its inner samples again from the rows
-/// one value on (cheaper than a call to copy them).
+/// [`super::runs::widen_rows`]: each row in blocks of eight pixels widened to `i16` (the last
+/// block overlapping the one before when `cols` is not a multiple of eight). Rows under eight
+/// pixels go to the portable code.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
-pub(super) fn bilinear_row_twice(
-    w: &[i32; 4],
-    top: &[i16],
-    bottom: &[i16],
-    out: &mut [i16],
-    inner: &mut [i16],
-) {
-    // A row of `inner.len() + 2` samples from rows one value longer, as the patch rows are;
-    // the portable code takes any other shape.
-    let n = inner.len();
-    let shaped = n >= LANES
-        && out.len() == n.saturating_add(2)
-        && top.len() > out.len()
-        && bottom.len() > out.len();
-    if !shaped {
-        return portable::bilinear_row_twice(w, top, bottom, out, inner);
+pub(super) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+    if cols < LANES || stride < cols {
+        return portable::widen_rows(block, stride, cols, out);
     }
-    bilinear_row(w, top, bottom, out);
-    bilinear_row(w, from(top, 1), from(bottom, 1), inner);
+    let last = cols - LANES;
+    for (r, dst) in out.chunks_exact_mut(cols).enumerate() {
+        let Some(src) = r.checked_mul(stride).and_then(|start| block.get(start..)) else {
+            return;
+        };
+        if src.len() < cols {
+            return;
+        }
+        let mut c = 0;
+        loop {
+            let start = c.min(last);
+            let pixels = src.get(start..start + LANES).map(<&[u8; LANES]>::try_from);
+            if let Some(Ok(pixels)) = pixels {
+                // SAFETY: reads the 8 bytes of `pixels`, with no alignment needed (module
+                // docs); the rest is register arithmetic on an SSE2 target.
+                let wide = unsafe {
+                    let bytes = _mm_loadl_epi64(pixels.as_ptr().cast());
+                    _mm_unpacklo_epi8(bytes, zero())
+                };
+                store_at(dst, start, wide);
+            }
+            if start == last {
+                break;
+            }
+            c += LANES;
+        }
+    }
 }
 
-/// Scharr sums of eight outputs, as two registers of four 32-bit lanes: the PMADDWD of the
-/// interleaved pairs `(a[k], b[k])` of each of three pairs of rows with its weight pair, added.
+/// True when every value of `v` is a pixel, `0..=255`.
 #[inline(always)]
-fn weighted3(terms: [(__m128i, __m128i, __m128i); 3]) -> (__m128i, __m128i) {
-    let (mut low, mut high) = (zero(), zero());
-    for (a, b, w) in terms {
+fn all_pixels(v: &[i16]) -> bool {
+    if v.len() < LANES {
+        return v.iter().all(|&x| (0..=255).contains(&x));
+    }
+    let ored = whole(v).chain(last(v)).fold(zero(), |acc, x| unsafe {
         // SAFETY: register arithmetic on an SSE2 target (module docs).
-        let (lo, hi) = unsafe { (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)) };
-        low = add(low, madd(lo, w));
-        high = add(high, madd(hi, w));
+        _mm_or_si128(acc, x)
+    });
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let high = _mm_and_si128(ored, _mm_set1_epi16(!0xFF));
+        _mm_movemask_epi8(_mm_cmpeq_epi16(high, zero())) == 0xFFFF
     }
-    (low, high)
 }
 
-/// [`super::runs::rescale`] of eight sums in two registers, packed.
+/// [`weight_pairs`] for weights that make samples of pixels `0..=8160`: each at least zero
+/// and their sum at most `2^14` (LK's sum to `2^14`).
 #[inline(always)]
-fn rescale8((low, high): (__m128i, __m128i)) -> __m128i {
+fn pixel_weight_pairs(w: &[i32; 4]) -> Option<(__m128i, __m128i)> {
+    let in_range = w.iter().all(|&v| (0..=1 << WEIGHT_BITS).contains(&v));
+    (in_range && w.iter().sum::<i32>() <= 1 << WEIGHT_BITS).then_some(())?;
+    weight_pairs(w)
+}
+
+/// `(v + 16) >> 5` of two registers of four 32-bit sums, packed: [`super::runs::rescale`] of
+/// sums whose results fit `i16` (those of samples of pixels, at most 4080).
+#[inline(always)]
+fn rescale_exact(low: __m128i, high: __m128i) -> __m128i {
     // SAFETY: register arithmetic on an SSE2 target (module docs).
     unsafe {
         let round = _mm_set1_epi32(1 << (SAMPLE_BITS - 1));
-        let four = |s| low_halves(_mm_srai_epi32::<{ SAMPLE_BITS as i32 }>(add(s, round)));
+        let four = |s| _mm_srai_epi32::<{ SAMPLE_BITS as i32 }>(add(s, round));
         _mm_packs_epi32(four(low), four(high))
     }
 }
 
-/// [`super::runs::scharr_row`]. Every sum is exact in 32 bits for any `i16` samples (at most
-/// `16 * 65535 < 2^21`), so the order of its terms does not change it:
-/// `dx = 3 (u[k+2] - u[k]) + 10 (m[k+2] - m[k]) + 3 (d[k+2] - d[k])` and
-/// `dy = 3 (d[k] - u[k]) + 10 (d[k+1] - u[k+1]) + 3 (d[k+2] - u[k+2])`, each term a PMADDWD
-/// of interleaved values with a pair `(c, -c)`.
+/// `3 (a + c) + 10 b` lane by lane as two registers of four 32-bit sums: Scharr's smoothing
+/// of values whose pair sums fit `i16`.
+#[inline(always)]
+fn smooth(a: __m128i, b: __m128i, c: __m128i) -> (__m128i, __m128i) {
+    let weights = pairs_of(3, 10);
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let outer = _mm_add_epi16(a, c);
+        let low = madd(_mm_unpacklo_epi16(outer, b), weights);
+        let high = madd(_mm_unpackhi_epi16(outer, b), weights);
+        (low, high)
+    }
+}
+
+/// [`super::runs::sampled_template`]. For pixels `0..=255` and weights that sum to at most
+/// `2^14` (every LK call) the samples are `0..=8160`: differences and pair sums of samples fit
+/// `i16`, and the Scharr sums become separable at no loss: `dx` is the vertical smoothing of
+/// the rows' differences two columns apart, `dy` the difference of the rows' horizontal
+/// smoothings two rows apart. The patch is never stored: each column block of the window walks
+/// down the patch rows with the last two rows' differences and smoothings in registers.
+/// Windows under 8 px, and any other input, go to the portable code.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
-pub(super) fn scharr_row(up: &[i16], mid: &[i16], down: &[i16], dx: &mut [i16], dy: &mut [i16]) {
-    let n = dx.len();
-    let reach = n.saturating_add(2);
-    let shaped = n >= LANES
-        && dy.len() == n
-        && up.len() >= reach
-        && mid.len() >= reach
-        && down.len() >= reach;
-    if !shaped {
-        return portable::scharr_row(up, mid, down, dx, dy);
-    }
-    let (three, ten) = (pairs_of(3, -3), pairs_of(10, -10));
-    let derivatives =
-        |[u0, u1, u2]: [__m128i; 3], [m0, m2]: [__m128i; 2], [d0, d1, d2]: [__m128i; 3]| {
-            let gx = weighted3([(u2, u0, three), (m2, m0, ten), (d2, d0, three)]);
-            let gy = weighted3([(d0, u0, three), (d1, u1, ten), (d2, u2, three)]);
-            (rescale8(gx), rescale8(gy))
-        };
-    // Rows of `n + 2` values: those at `k + 2` of every output `k` are there.
-    let shifted = |row| (whole(row), whole(from(row, 1)), whole(from(row, 2)));
-    let ((u0, u1, u2), (m0, _, m2), (d0, d1, d2)) = (shifted(up), shifted(mid), shifted(down));
-    let rows = (u0.zip(u1).zip(u2)).zip(m0.zip(m2)).zip(d0.zip(d1).zip(d2));
-    let mut outputs = dx.chunks_exact_mut(LANES).zip(dy.chunks_exact_mut(LANES));
-    for ((gx, gy), ((((u0, u1), u2), (m0, m2)), ((d0, d1), d2))) in (&mut outputs).zip(rows) {
-        let (x, y) = derivatives([u0, u1, u2], [m0, m2], [d0, d1, d2]);
-        if let (Ok(gx), Ok(gy)) = (
-            <&mut [i16; LANES]>::try_from(gx),
-            <&mut [i16; LANES]>::try_from(gy),
-        ) {
-            store(gx, x);
-            store(gy, y);
-        }
-    }
-    if n % LANES == 0 {
+pub(super) fn sampled_template(
+    w: &[i32; 4],
+    source: &[i16],
+    patch: &mut [i16],
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) {
+    let win = intensity.len().checked_div(pitch).unwrap_or(0);
+    let n = win.saturating_add(3);
+    let shaped = win >= LANES
+        && pitch >= win
+        && intensity.len() == win * pitch
+        && dx.len() == intensity.len()
+        && dy.len() == intensity.len()
+        && source.len() >= n * n;
+    let pixels = shaped && all_pixels(source.get(..n * n).unwrap_or(&[]));
+    let weights = pixel_weight_pairs(w).filter(|_| pixels);
+    let Some(weights) = weights else {
+        return portable::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
+    };
+    // Patches up to 16 px wide, in two registers a row, when the source has the slack the
+    // second register's loads reach into.
+    let slack = source.len() >= n * n + LANES;
+    if slack && win + 2 <= 2 * LANES {
+        let done = template_rows_16(weights, source, n, pitch, [intensity, dx, dy]);
+        debug_assert!(done.is_some(), "shaped inputs hold every block");
         return;
     }
-    // The last eight outputs, overlapping the last whole block.
-    let start = n.saturating_sub(LANES);
-    let at = |row: &[i16], k: usize| load_at(row, start.saturating_add(k));
-    if let (Some(u0), Some(u1), Some(u2), Some(m0), Some(m2), Some(d0), Some(d1), Some(d2)) = (
-        at(up, 0),
-        at(up, 1),
-        at(up, 2),
-        at(mid, 0),
-        at(mid, 2),
-        at(down, 0),
-        at(down, 1),
-        at(down, 2),
-    ) {
-        let (x, y) = derivatives([u0, u1, u2], [m0, m2], [d0, d1, d2]);
-        store_at(dx, start, x);
-        store_at(dy, start, y);
+    // Column blocks at 0, 8, ... and, if the window is not a multiple of 8 wide, its last 8.
+    let last = win - LANES;
+    let mut c = 0;
+    loop {
+        let start = c.min(last);
+        let done = template_column(weights, source, n, start, pitch, [intensity, dx, dy]);
+        debug_assert!(done.is_some(), "shaped inputs hold every block");
+        if start == last {
+            return;
+        }
+        c += LANES;
     }
+}
+
+/// [`sampled_template`] for windows of 8 to 14 px, whose patch rows are at most 16 samples:
+/// each patch row in two registers (columns `0..8` and `8..16`), the window's two column
+/// blocks from them by lane shifts. The second block, when shorter than 8, is stored whole
+/// where the buffer holds it: its lanes past the window land in the padding column, which the
+/// caller clears, and in the next row, which is stored after it. `None` if a load or store
+/// left its buffer (never for the shapes `sampled_template` checks and a source of
+/// `n^2 + 8` values: the second register's loads reach at most 7 values past the square).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_rows_16(
+    (upper, lower): (__m128i, __m128i),
+    source: &[i16],
+    n: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    const REACH: usize = 2 * LANES + 1;
+    let win = n.checked_sub(3)?;
+    // The interleaved pairs (value k, value k + 1) of source row `r`, columns 0.. and 8..
+    let pairs = |r: usize| -> Option<[(__m128i, __m128i); 2]> {
+        let start = r.checked_mul(n)?;
+        let row: &[i16; REACH] = source
+            .get(start..start.checked_add(REACH)?)?
+            .try_into()
+            .ok()?;
+        let at = |k: usize| {
+            row.get(k..k + LANES)
+                .and_then(|v| v.try_into().ok())
+                .map(load)
+        };
+        let (a, b, c, d) = (at(0)?, at(1)?, at(LANES)?, at(LANES + 1)?);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe {
+            [
+                (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+                (_mm_unpacklo_epi16(c, d), _mm_unpackhi_epi16(c, d)),
+            ]
+        })
+    };
+    let sample = |top: (__m128i, __m128i), bottom: (__m128i, __m128i)| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe {
+            let round = _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1));
+            let four = |t, b| {
+                let sum = add(add(madd(t, upper), madd(b, lower)), round);
+                _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum)
+            };
+            _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1))
+        }
+    };
+    // Stores block `b` of window row `row` (see above).
+    let put = |buf: &mut [i16], row: usize, b: usize, v: __m128i| {
+        let at = row * pitch + b * LANES;
+        if at + LANES <= buf.len() {
+            store_at(buf, at, v);
+        } else {
+            let mut lanes = [0i16; LANES];
+            store(&mut lanes, v);
+            let end = (row * pitch + win).min(buf.len());
+            if let Some(out) = buf.get_mut(at..end) {
+                out.iter_mut().zip(lanes).for_each(|(o, v)| *o = v);
+            }
+        }
+    };
+    // One column block: the patch row's samples from its first column (`a`) with the middle
+    // and right neighbours, their difference two columns apart and horizontal smoothing.
+    let block = |a: __m128i, middle: __m128i, right: __m128i| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let difference = unsafe { _mm_sub_epi16(right, a) };
+        (difference, smooth(a, middle, right))
+    };
+    // The derivatives of a window row from its three patch rows' differences and the
+    // smoothings of the rows above and below.
+    let derivatives = |[d_up, d_mid, d_down]: [__m128i; 3],
+                       s_up: (__m128i, __m128i),
+                       s_down: (__m128i, __m128i)| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe {
+            let (low, high) = smooth(d_up, d_mid, d_down);
+            let gy_low = _mm_sub_epi32(s_down.0, s_up.0);
+            let gy_high = _mm_sub_epi32(s_down.1, s_up.1);
+            (rescale_exact(low, high), rescale_exact(gy_low, gy_high))
+        }
+    };
+    let second = win > LANES;
+    let [mut top0, mut top1] = pairs(0)?;
+    let zeros = (zero(), zero());
+    let (mut d0, mut s0) = ([zero(); 2], [zeros; 2]);
+    let (mut d1, mut s1) = ([zero(); 2], [zeros; 2]);
+    for r in 0..n - 1 {
+        let [bottom0, bottom1] = pairs(r + 1)?;
+        let (a0, a1) = (sample(top0, bottom0), sample(top1, bottom1));
+        (top0, top1) = (bottom0, bottom1);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (middle0, right0, middle1, right1) = unsafe {
+            (
+                _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
+                _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
+                _mm_srli_si128::<2>(a1),
+                _mm_srli_si128::<4>(a1),
+            )
+        };
+        let (diff0, smooth0) = block(a0, middle0, right0);
+        let (diff1, smooth1) = block(a1, middle1, right1);
+        if r >= 1 && r <= win {
+            put(intensity, r - 1, 0, middle0);
+            if second {
+                put(intensity, r - 1, 1, middle1);
+            }
+        }
+        if r >= 2 {
+            let (gx, gy) = derivatives([d0[0], d0[1], diff0], s0[0], smooth0);
+            put(dx, r - 2, 0, gx);
+            put(dy, r - 2, 0, gy);
+            if second {
+                let (gx, gy) = derivatives([d1[0], d1[1], diff1], s1[0], smooth1);
+                put(dx, r - 2, 1, gx);
+                put(dy, r - 2, 1, gy);
+            }
+        }
+        (d0, s0) = ([d0[1], diff0], [s0[1], smooth0]);
+        (d1, s1) = ([d1[1], diff1], [s1[1], smooth1]);
+    }
+    Some(())
+}
+
+/// The eight window columns from `c` of [`sampled_template`], down every patch row; `None` if a
+/// load or store left its buffer (never for the shapes `sampled_template` checks: the last
+/// load of a block ends at the source's `n^2`).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_column(
+    (upper, lower): (__m128i, __m128i),
+    source: &[i16],
+    n: usize,
+    c: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    // The interleaved pairs (value k, value k + 1) of source row `r` from column `x`.
+    let pairs = |r: usize, x: usize| -> Option<(__m128i, __m128i)> {
+        let at = r.checked_mul(n)?.checked_add(x)?;
+        let (a, b) = (load_at(source, at)?, load_at(source, at.checked_add(1)?)?);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe { (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)) })
+    };
+    // Eight samples from the pairs of the rows above and below, exact in `i16` (0..=8160).
+    let sample = |top: (__m128i, __m128i), bottom: (__m128i, __m128i)| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe {
+            let round = _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1));
+            let four = |t, b| {
+                let sum = add(add(madd(t, upper), madd(b, lower)), round);
+                _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum)
+            };
+            _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1))
+        }
+    };
+    let (mut top_a, mut top_b) = (pairs(0, c)?, pairs(0, c.checked_add(2)?)?);
+    // The last two patch rows' differences two columns apart and horizontal smoothings.
+    let mut differences = [zero(); 2];
+    let mut smoothings = [(zero(), zero()); 2];
+    for r in 0..n - 1 {
+        let (bottom_a, bottom_b) = (pairs(r + 1, c)?, pairs(r + 1, c + 2)?);
+        // Patch columns c.., c + 2.. and, between them, c + 1..: the template's intensities.
+        let (a, b) = (sample(top_a, bottom_a), sample(top_b, bottom_b));
+        (top_a, top_b) = (bottom_a, bottom_b);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (middle, difference) = unsafe {
+            let last_lane = _mm_slli_si128::<14>(_mm_set1_epi16(-1));
+            let from_b = _mm_and_si128(_mm_slli_si128::<2>(b), last_lane);
+            (
+                _mm_or_si128(_mm_srli_si128::<2>(a), from_b),
+                _mm_sub_epi16(b, a),
+            )
+        };
+        let smoothing = smooth(a, middle, b);
+        if let Some(row) = r.checked_sub(1).filter(|&row| row < n - 3) {
+            store_at(intensity, row * pitch + c, middle);
+        }
+        if let Some(row) = r.checked_sub(2) {
+            let [d_up, d_mid] = differences;
+            let [(s_up_low, s_up_high), _] = smoothings;
+            // SAFETY: register arithmetic on an SSE2 target (module docs).
+            let (gx, gy) = unsafe {
+                let (low, high) = smooth(d_up, d_mid, difference);
+                let gx = rescale_exact(low, high);
+                let gy_low = _mm_sub_epi32(smoothing.0, s_up_low);
+                let gy_high = _mm_sub_epi32(smoothing.1, s_up_high);
+                (gx, rescale_exact(gy_low, gy_high))
+            };
+            let at = row * pitch + c;
+            store_at(dx, at, gx);
+            store_at(dy, at, gy);
+        }
+        differences = [differences[1], difference];
+        smoothings = [smoothings[1], smoothing];
+    }
+    Some(())
 }
 
 /// Sixteen pixels of `row` from `start`, if it holds them.

@@ -651,7 +651,8 @@ impl LucasKanade {
                 NextWindow {
                     source,
                     values,
-                    cached: None,
+                    at: None,
+                    correlations: Correlations::default(),
                 },
             )),
             Err(TemplateError::LowTexture) => None,
@@ -664,7 +665,9 @@ impl LucasKanade {
 struct NextWindow<'s> {
     source: &'s mut [i16],
     values: &'s mut [i16],
-    cached: Option<((isize, isize), Correlations)>,
+    /// The integer position `correlations` belong to, if any.
+    at: Option<(isize, isize)>,
+    correlations: Correlations,
 }
 
 impl NextWindow<'_> {
@@ -677,12 +680,12 @@ impl NextWindow<'_> {
         origin: &WindowOrigin,
     ) -> &Correlations {
         let position = (origin.x, origin.y);
-        if self.cached.as_ref().is_some_and(|(at, _)| *at != position) {
-            self.cached = None;
+        if self.at != Some(position) {
+            let (layout, t) = (template.layout(), template.buffers());
+            self.correlations = L::correlate(frame, origin, layout, self.source, t);
+            self.at = Some(position);
         }
-        let (layout, t, source) = (template.layout(), template.buffers(), &mut *self.source);
-        let correlate = || (position, L::correlate(frame, origin, layout, source, t));
-        &self.cached.get_or_insert_with(correlate).1
+        &self.correlations
     }
 }
 

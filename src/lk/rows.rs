@@ -49,7 +49,8 @@ impl Loops for Rows {
             patch_len: (win + 2) * (win + 2),
             // The patch's source pixels when they must be gathered; the next window's, always,
             // need `(win + 1)^2` and a value of slack.
-            source_len: (win + 3) * (win + 3),
+            // and a block of slack for the SSE2 template's loads.
+            source_len: (win + 3) * (win + 3) + 8,
         }
     }
 
@@ -86,9 +87,10 @@ impl Loops for Rows {
             let n = side + 1;
             gather(frame, origin, n, n, source);
             // n^2 = (win + 3)^2 = source_len.
-            let px = in_layout(source, 0..n * n);
-            sample_patch(&w, px, n, layout, patch, intensity);
-            derivatives(patch, layout, dx, dy);
+            let px = in_layout(source, 0..n * n + 8);
+            let patch = in_layout_mut(patch, 0..side * side);
+            let out = [&mut *intensity, &mut *dx, &mut *dy];
+            runs::sampled_template(&w, px, patch, layout.pitch, out);
         }
         for buf in [&mut *intensity, &mut *dx, &mut *dy] {
             clear_padding(layout, buf);
@@ -220,108 +222,11 @@ fn row_pairs<P>(px: &[P], stride: usize) -> impl Iterator<Item = (&[P], &[P])> {
     px.chunks(stride.max(1)).zip(below.chunks(stride.max(1)))
 }
 
-/// Samples the template patch into `patch`, and its interior, the template's intensities, into
-/// `intensity` as well: storing each interior sample twice costs less than copying afterwards.
-#[inline(always)]
-fn sample_patch(
-    w: &[i32; 4],
-    px: &[i16],
-    stride: usize,
-    layout: &Layout,
-    patch: &mut [i16],
-    intensity: &mut [i16],
-) {
-    let (win, pp) = (layout.win, layout.patch_pitch);
-    let rows = row_pairs(px, stride).zip(patch.chunks_exact_mut(pp));
-    let mut inner = intensity
-        .chunks_exact_mut(layout.pitch)
-        .map(|row| in_layout_mut(row, 0..win));
-    for (r, ((top, bottom), out)) in rows.enumerate() {
-        match if r == 0 { None } else { inner.next() } {
-            Some(inner) => runs::bilinear_row_twice(w, top, bottom, out, inner),
-            None => runs::bilinear_row(w, top, bottom, out),
-        }
-    }
-}
-
-/// The correlations of the next window's gathered source block with the template.
-///
-/// Neighbour `q`'s pixels under the window are the run of the block starting at
-/// `[0, 1, pitch, pitch + 1][q]`; the template's zero padding column drops the extra column of
-/// each run from the products.
-#[inline(never)]
+/// The correlations of the next window's gathered source block with the template
+/// ([`runs::correlate`]).
 fn correlate(block: &[i16], layout: &Layout, t: &TemplateBuffers<'_>) -> Correlations {
-    let (p, n) = (layout.pitch, layout.window_len());
-    let mut c = Correlations {
-        sums: pixel_sums(block, layout).map(|plain| [plain, 0, 0, 0]),
-    };
-    for (sums, offset) in c.sums.iter_mut().zip([0, 1, p, p + 1]) {
-        // offset + n <= p + 1 + win p = the block's (win + 1) p + 1.
-        let run = in_layout(block, offset..offset + n);
-        [sums[1], sums[2], sums[3]] = dot3(run, [t.intensity, t.dx, t.dy]);
-    }
-    c
-}
-
-/// `ΣP` of each neighbour over the window, from the block's total, its first and last rows and
-/// columns: the samples' own pixels are the block without its last row and column, their right
-/// neighbours the block without its last row and first column, and so on. At most
-/// `64^2 * 255 < 2^31`.
-fn pixel_sums(block: &[i16], layout: &Layout) -> [i64; 4] {
-    let (p, win) = (layout.pitch, layout.win);
-    // The block is the (win + 1)-square, p = win + 1 apart, and a value of slack.
-    let square = in_layout(block, 0..p * p);
-    // The block's total by pairs; its first and last columns by one load a row.
-    let sum_of = runs::sum;
-    let total = sum_of(square);
-    let (mut left, mut right) = (0, 0);
-    for row in square.chunks_exact(p) {
-        left += row.first().map_or(0, |&v| i32::from(v));
-        right += row.last().map_or(0, |&v| i32::from(v));
-    }
-    let row_sum = |r: usize| sum_of(in_layout(square, r * p..(r + 1) * p));
-    let at = |k: usize| square.get(k).map_or(0, |&v| i32::from(v));
-    let (top, bottom) = (row_sum(0), row_sum(win));
-    let without = |row: i32, col: i32, corner: usize| total - row - col + at(corner);
-    [
-        without(bottom, right, win * p + win),
-        without(bottom, left, win * p),
-        without(top, right, win),
-        without(top, left, 0),
-    ]
-    .map(i64::from)
-}
-
-/// Pixel-template products summed in 32 bits before widening: `1024 * 2_080_800 < 2^31`
-/// (widths in `correlation.rs`).
-const CORRELATION_CHUNK: usize = 1024;
-
-/// `[Σ a[k] b0[k], Σ a[k] b1[k], Σ a[k] b2[k]]`: each pixel pair of `a` loaded once for three
-/// dual multiply-accumulates, in 32 bits over [`CORRELATION_CHUNK`] values at a time.
-fn dot3(a: &[i16], b: [&[i16]; 3]) -> [i64; 3] {
-    let mut total = [0i64; 3];
-    for (k, a) in a.chunks(CORRELATION_CHUNK).enumerate() {
-        let start = k * CORRELATION_CHUNK;
-        // `a` is a window run and each `b` a window buffer: the same length.
-        let part = b.map(|v| in_layout(v, start..start + a.len()));
-        for (t, s) in total.iter_mut().zip(runs::dot3(a, part)) {
-            *t += i64::from(s);
-        }
-    }
-    total
-}
-
-/// The Scharr derivatives of the template inside its patch.
-fn derivatives(patch: &[i16], layout: &Layout, dx: &mut [i16], dy: &mut [i16]) {
-    let (win, p) = (layout.win, layout.pitch);
-    let patch_rows = patch.chunks_exact(layout.patch_pitch);
-    let below = patch_rows.clone().skip(1).zip(patch_rows.clone().skip(2));
-    let outputs = dx.chunks_exact_mut(p).zip(dy.chunks_exact_mut(p));
-    for ((dx_row, dy_row), (up, (mid, down))) in outputs.zip(patch_rows.zip(below)) {
-        let (Some(dx_row), Some(dy_row)) = (dx_row.get_mut(..win), dy_row.get_mut(..win)) else {
-            continue;
-        };
-        runs::scharr_row(up, mid, down, dx_row, dy_row);
+    Correlations {
+        sums: runs::correlate(block, layout.pitch, [t.intensity, t.dx, t.dy]),
     }
 }
 
@@ -430,33 +335,18 @@ fn pixel_row(
     }
 }
 
-/// The template's window sums, in two passes of dual multiply-accumulates over the rows (each
-/// row even in length with its zero padding column, so its values pair up): the gradients'
-/// sums and products, then the intensities' with themselves and the gradients. A plain sum
-/// is a multiply-accumulate with ones. The same 32-bit widths per stretch of at most 64 values
-/// as the reference loops' sums in the tests.
-#[inline(never)]
+/// The template's window sums ([`runs::template_sums`]).
 fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> TemplateSums {
-    let mut s = TemplateSums::default();
-    let rows = intensity
-        .chunks(MAX_ROW + 1)
-        .zip(dx.chunks(MAX_ROW + 1).zip(dy.chunks(MAX_ROW + 1)));
-    for (i, (gx, gy)) in rows {
-        let [gxx, gxy, gyy, sx, sy] = runs::gradient_sums(gx, gy);
-        let [si, sii, six, siy] = runs::intensity_sums(i, gx, gy);
-        s.gxx += i64::from(gxx);
-        s.gxy += i64::from(gxy);
-        s.gyy += i64::from(gyy);
-        s.sx += i64::from(sx);
-        s.sy += i64::from(sy);
-        s.si += i64::from(si);
-        // `ΣI²` of at most 64 values is below 2^32: its 32 bits, read unsigned, are exact.
-        s.sii += i64::from(sii as u32);
-        s.six += i64::from(six);
-        s.siy += i64::from(siy);
+    let [gxx, gxy, gyy, sx, sy, si, sii, six, siy] = runs::template_sums(intensity, dx, dy);
+    TemplateSums {
+        gxx,
+        gxy,
+        gyy,
+        si,
+        sii,
+        sx,
+        sy,
+        six,
+        siy,
     }
-    s
 }
-
-/// Values summed in 32 bits before widening: as many as the largest window's row (module docs).
-const MAX_ROW: usize = super::MAX_WINDOW;

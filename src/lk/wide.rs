@@ -32,7 +32,7 @@ impl Reciprocal {
             });
         }
         // 1/d ~= 2^63 / top * 2^-(63 + 96 - lz); 2^63 / top lies in (2^31, 2^32).
-        let mantissa = u64::from(div_2_63(top as u32));
+        let mantissa = u64::from(crate::dsp::div_2_63(top as u32));
         Some(Self {
             mantissa,
             shift: 63 + 96 - lz,
@@ -74,33 +74,6 @@ impl Reciprocal {
             shift: self.shift as i32 - drop as i32,
         }
     }
-}
-
-/// `floor(2^63 / v)` for `v` in `(2^31, 2^32)`, by long division in 16-bit digits (Knuth's
-/// algorithm D with a normalised divisor): two 32 / 32-bit hardware divisions, where a 64-bit
-/// division is a library routine of some two hundred instructions on a Cortex-M4.
-fn div_2_63(v: u32) -> u32 {
-    const B: u64 = 1 << 16;
-    let (high, low) = (v >> 16, u64::from(v & 0xFFFF));
-    // One 16-bit quotient digit of `top * 2^16 / v` (`top < v`, so 32 bits), with its estimate
-    // from the divisor's high half corrected down (by at most two).
-    let digit = |top: u32| {
-        let (mut q, mut r) = (u64::from(top / high), u64::from(top % high));
-        let top = u64::from(top);
-        while q >= B || q * low > B * r {
-            q -= 1;
-            r += u64::from(high);
-            if r >= B {
-                break;
-            }
-        }
-        // The remainder is below the divisor: 32 bits.
-        (q, (top * B - q * u64::from(v)) as u32)
-    };
-    // The dividend 2^63 is the digits [2^31 : 0 : 0] in base 2^16 over a 32-bit divisor.
-    let (q1, rest) = digit(1 << 31);
-    let (q0, _) = digit(rest);
-    (q1 * B + q0) as u32
 }
 
 /// Fractions `c / d` as `values[k] * 2^-shift`, each `|value| < 2^30`.
@@ -167,7 +140,9 @@ mod tests {
         let mut v = (1u32 << 31) + 1;
         let mut step = 1u32;
         while v > 1 << 31 {
-            assert_eq!(u64::from(div_2_63(v)), (1u64 << 63) / u64::from(v), "{v}");
+            let exact = (1u64 << 63) / u64::from(v);
+            assert_eq!(u64::from(crate::dsp::portable::div_2_63(v)), exact, "{v}");
+            assert_eq!(u64::from(crate::dsp::div_2_63(v)), exact, "{v}");
             v = v.wrapping_add(step);
             step = step.wrapping_mul(3).wrapping_add(7) % 99_991;
         }
@@ -179,7 +154,9 @@ mod tests {
             0x8000_FFFF,
             0xFFFF_0000,
         ] {
-            assert_eq!(u64::from(div_2_63(v)), (1u64 << 63) / u64::from(v), "{v}");
+            let exact = (1u64 << 63) / u64::from(v);
+            assert_eq!(u64::from(crate::dsp::portable::div_2_63(v)), exact, "{v}");
+            assert_eq!(u64::from(crate::dsp::div_2_63(v)), exact, "{v}");
         }
     }
 

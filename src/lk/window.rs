@@ -218,20 +218,8 @@ pub(crate) fn gather(
     out: &mut [i16],
 ) {
     if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
-        // Inside the frame: a plain copy, row by row; rows of the common windows' lengths
-        // unrolled. Bare-metal targets, short of flash, unroll only the lengths of the flight
-        // presets' 7 and 9 px windows, not those of the 21 px default.
-        let stride = frame.stride();
-        match cols {
-            8 => copy_rows::<8>(block, stride, out),
-            10 => copy_rows::<10>(block, stride, out),
-            12 => copy_rows::<12>(block, stride, out),
-            #[cfg(not(target_os = "none"))]
-            22 => copy_rows::<22>(block, stride, out),
-            #[cfg(not(target_os = "none"))]
-            24 => copy_rows::<24>(block, stride, out),
-            _ => copy_any_rows(block, stride, cols, out),
-        }
+        // Inside the frame: a plain copy, row by row.
+        crate::dsp::runs::widen_rows(block, frame.stride(), cols, out);
         return;
     }
     let (width, height) = (frame.width() as isize, frame.height() as isize);
@@ -256,36 +244,6 @@ pub(crate) fn gather(
             .take(start)
             .for_each(|d| *d = i16::from(first));
         dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
-    }
-}
-
-/// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`cols` apart).
-#[inline(never)]
-fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
-    for (dst, src) in out.chunks_exact_mut(cols).zip(block.chunks(stride)) {
-        dst.iter_mut()
-            .zip(src)
-            .for_each(|(d, &s)| *d = i16::from(s));
-    }
-}
-
-/// Copies rows of `N` pixels, `stride` apart in `block`, into `out` (`N` apart).
-fn copy_rows<const N: usize>(block: &[u8], stride: usize, out: &mut [i16]) {
-    for (dst, src) in out.chunks_exact_mut(N).zip(block.chunks(stride)) {
-        // `block` is a frame block of `N`-pixel rows (its last row ends at its last pixel), so
-        // every chunk holds `N` pixels and every `out` chunk is `N` long.
-        let (Ok(dst), Some(Ok(src))) = (
-            <&mut [i16; N]>::try_from(dst),
-            src.get(..N).map(<&[u8; N]>::try_from),
-        ) else {
-            debug_assert!(
-                src.len() >= N,
-                "a block row of {} pixels, {N} wanted",
-                src.len()
-            );
-            return;
-        };
-        *dst = src.map(i16::from);
     }
 }
 

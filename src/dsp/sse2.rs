@@ -31,13 +31,13 @@
 use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
     __m128i, _mm_add_epi16, _mm_add_epi32, _mm_add_epi64, _mm_and_si128, _mm_andnot_si128,
-    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_loadl_epi64, _mm_loadu_si128,
-    _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32, _mm_packus_epi16,
-    _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16, _mm_slli_epi32,
-    _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128, _mm_storel_epi64,
-    _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16, _mm_unpackhi_epi32,
-    _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32, _mm_unpacklo_epi64,
-    _mm_unpacklo_epi8, _mm_xor_si128,
+    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_loadl_epi64,
+    _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
+    _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
+    _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
+    _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
+    _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
+    _mm_unpacklo_epi64, _mm_unpacklo_epi8, _mm_xor_si128,
 };
 
 /// `i16` values in a register.
@@ -690,6 +690,11 @@ pub(super) fn sampled_template(
     // Patches up to 16 px wide, in two registers a row, when the source has the slack the
     // second register's loads reach into.
     let slack = source.len() >= n * n + LANES;
+    if slack && (win == 9 || win == 10) {
+        let done = template_rows_12(weights, source, n, pitch, [intensity, dx, dy]);
+        debug_assert!(done.is_some(), "shaped inputs hold every block");
+        return;
+    }
     if slack && win + 2 <= 2 * LANES {
         let done = template_rows_16(weights, source, n, pitch, [intensity, dx, dy]);
         debug_assert!(done.is_some(), "shaped inputs hold every block");
@@ -707,6 +712,140 @@ pub(super) fn sampled_template(
         }
         c += LANES;
     }
+}
+
+/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
+/// two window columns: the patch rows' samples from column 8 on need only their first four
+/// (the block's columns and the two to their right), so that block runs on four lanes, its
+/// sums in one register of 32-bit lanes, and stores its two first values (the second, for a
+/// 9 px window, lands in the padding column, which the caller clears).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_rows_12(
+    (upper, lower): (__m128i, __m128i),
+    source: &[i16],
+    n: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    const REACH: usize = LANES + 1 + 4;
+    let win = n.checked_sub(3)?;
+    let load4 = |row: &[i16; REACH], k: usize| -> Option<__m128i> {
+        let four: &[i16; 4] = row.get(k..k + 4)?.try_into().ok()?;
+        // SAFETY: reads the 8 bytes of `four`, with no alignment needed (module docs).
+        Some(unsafe { _mm_loadl_epi64(four.as_ptr().cast()) })
+    };
+    // Source row `r`'s interleaved pairs (value k, value k + 1): columns 0..8 in two
+    // registers, 8..12 in one.
+    let pairs = |r: usize| -> Option<((__m128i, __m128i), __m128i)> {
+        let start = r.checked_mul(n)?;
+        let row: &[i16; REACH] = source
+            .get(start..start.checked_add(REACH)?)?
+            .try_into()
+            .ok()?;
+        let at = |k: usize| {
+            row.get(k..k + LANES)
+                .and_then(|v| v.try_into().ok())
+                .map(load)
+        };
+        let (a, b) = (at(0)?, at(1)?);
+        let (c, d) = (load4(row, LANES)?, load4(row, LANES + 1)?);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe {
+            (
+                (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+                _mm_unpacklo_epi16(c, d),
+            )
+        })
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let (round, weights) = unsafe {
+        (
+            _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1)),
+            pairs_of(3, 10),
+        )
+    };
+    let four = |t, b| {
+        let sum = add(add(madd(t, upper), madd(b, lower)), round);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe { _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum) }
+    };
+    // `3 (a + c) + 10 b` of the first four lanes.
+    let smooth4 = |a: __m128i, b: __m128i, c: __m128i| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe { madd(_mm_unpacklo_epi16(_mm_add_epi16(a, c), b), weights) }
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let rescale4 = |s: __m128i| unsafe {
+        let round = _mm_set1_epi32(1 << (SAMPLE_BITS - 1));
+        let v = _mm_srai_epi32::<{ SAMPLE_BITS as i32 }>(add(s, round));
+        _mm_packs_epi32(v, v)
+    };
+    // The first two values of a register at `at` in `buf`, if it holds them.
+    let put2 = |buf: &mut [i16], at: usize, v: __m128i| {
+        if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
+            // SAFETY: register arithmetic on an SSE2 target (module docs).
+            let bits = unsafe { _mm_cvtsi128_si32(v) };
+            // The register's first two 16-bit lanes, low first.
+            #[allow(clippy::cast_possible_truncation)]
+            let lanes = [bits as i16, (bits >> 16) as i16];
+            *two = lanes;
+        }
+    };
+    let (mut top, mut top_right) = pairs(0)?;
+    let zeros = (zero(), zero());
+    let (mut d0, mut s0) = ([zero(); 2], [zeros; 2]);
+    let (mut d1, mut s1) = ([zero(); 2], [zero(); 2]);
+    for r in 0..n - 1 {
+        let (bottom, bottom_right) = pairs(r + 1)?;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (a0, a1) = unsafe {
+            let a0 = _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1));
+            let right = four(top_right, bottom_right);
+            (a0, _mm_packs_epi32(right, right))
+        };
+        (top, top_right) = (bottom, bottom_right);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (middle0, right0, middle1, right1) = unsafe {
+            (
+                _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
+                _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
+                _mm_srli_si128::<2>(a1),
+                _mm_srli_si128::<4>(a1),
+            )
+        };
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (diff0, diff1) = unsafe { (_mm_sub_epi16(right0, a0), _mm_sub_epi16(right1, a1)) };
+        let smooth0 = smooth(a0, middle0, right0);
+        let smooth1 = smooth4(a1, middle1, right1);
+        if r >= 1 && r <= win {
+            let at = (r - 1) * pitch;
+            store_at(intensity, at, middle0);
+            put2(intensity, at + LANES, middle1);
+        }
+        if r >= 2 {
+            let at = (r - 2) * pitch;
+            // SAFETY: register arithmetic on an SSE2 target (module docs).
+            let (gx0, gy0, gx1, gy1) = unsafe {
+                let (low, high) = smooth(d0[0], d0[1], diff0);
+                let gy_low = _mm_sub_epi32(smooth0.0, s0[0].0);
+                let gy_high = _mm_sub_epi32(smooth0.1, s0[0].1);
+                (
+                    rescale_exact(low, high),
+                    rescale_exact(gy_low, gy_high),
+                    rescale4(smooth4(d1[0], d1[1], diff1)),
+                    rescale4(_mm_sub_epi32(smooth1, s1[0])),
+                )
+            };
+            store_at(dx, at, gx0);
+            store_at(dy, at, gy0);
+            put2(dx, at + LANES, gx1);
+            put2(dy, at + LANES, gy1);
+        }
+        (d0, s0) = ([d0[1], diff0], [s0[1], smooth0]);
+        (d1, s1) = ([d1[1], diff1], [s1[1], smooth1]);
+    }
+    Some(())
 }
 
 /// [`sampled_template`] for windows of 8 to 14 px, whose patch rows are at most 16 samples:

@@ -134,17 +134,39 @@ pub(crate) fn sampled_template(
 }
 
 /// Copies the rows of `cols` pixels of a frame block (`stride` apart, the last ending at the
-/// block's end, as `ImageView::block` gives them) into `out` as `i16`, `cols` apart, for as
-/// many rows as both hold.
+/// block's end, as `ImageView::block` gives them) into `out` as `i16`, `pitch >= cols` apart,
+/// for as many rows as both hold.
 #[inline(always)]
-pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16], pitch: usize) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     {
-        super::sse2::widen_rows(block, stride, cols, out);
+        super::sse2::widen_rows(block, stride, cols, out, pitch);
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     {
-        portable::widen_rows(block, stride, cols, out);
+        portable::widen_rows(block, stride, cols, out, pitch);
+    }
+}
+
+/// The sum over an LK window of `|J 2^16 - gain I - bias|` (wrapping in 32 bits, as `u32`):
+/// `J` the bilinear samples (weights `w`, rounded as [`bilinear`]) of the window's source block
+/// `block` (the `(win + 1)` square, rows `pitch = win + 1` apart, and a value of slack) and `I`
+/// the template's `intensity` (`win` rows of `pitch` values; the padding is not read).
+#[inline(always)]
+pub(crate) fn abs_residual(
+    w: &[i16; 4],
+    block: &[i16],
+    pitch: usize,
+    intensity: &[i16],
+    correction: (i32, i32),
+) -> u64 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        super::sse2::abs_residual(w, block, pitch, intensity, correction)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        portable::abs_residual(w, block, pitch, intensity, correction)
     }
 }
 
@@ -314,6 +336,58 @@ pub(crate) mod portable {
         }
     }
 
+    /// [`super::abs_residual`], row by row: each sample's bilinear sum as two dual
+    /// multiply-accumulates (the pixel pair of each row against its two weights), corrected
+    /// and summed at once.
+    #[allow(clippy::arithmetic_side_effects)]
+    pub(crate) fn abs_residual(
+        w: &[i16; 4],
+        block: &[i16],
+        pitch: usize,
+        intensity: &[i16],
+        correction: (i32, i32),
+    ) -> u64 {
+        let win = pitch.saturating_sub(1);
+        let [w00, w01, w10, w11] = w.map(|w| u32::from(w as u16));
+        let weights = (w00 | (w01 << 16), w10 | (w11 << 16));
+        let mut total = 0u64;
+        let mut at = 0;
+        while let (Some(top), Some(bottom), Some(i)) = (
+            block.get(at..at + pitch),
+            block.get(at + pitch..at + 2 * pitch),
+            intensity.get(at..at + win),
+        ) {
+            total += residual_row(weights, top, bottom, i, correction);
+            at += pitch;
+        }
+        total
+    }
+
+    /// [`abs_residual`] of one row: the samples between `top` and `bottom` (pixel `k` and
+    /// `k + 1` of each) against the template row `i`.
+    #[inline(never)]
+    fn residual_row(
+        (upper, lower): (u32, u32),
+        top: &[i16],
+        bottom: &[i16],
+        i: &[i16],
+        (gain, bias): (i32, i32),
+    ) -> u64 {
+        const ROUND: i32 = 1 << (super::WEIGHT_BITS - super::SAMPLE_BITS - 1);
+        let mut total = 0u64;
+        let pixels = top.windows(2).zip(bottom.windows(2));
+        for (&i, (t, b)) in i.iter().zip(pixels) {
+            // The same sum and rounding as `bilinear`, two products per instruction, and the
+            // same truncation.
+            let sum = smlad(pair(b), lower, smlad(pair(t), upper, ROUND));
+            #[allow(clippy::cast_possible_truncation)]
+            let j = (sum >> (super::WEIGHT_BITS - super::SAMPLE_BITS)) as i16;
+            let corrected = (i32::from(j) << 16).wrapping_sub(gain.wrapping_mul(i32::from(i)));
+            total = total.wrapping_add(u64::from(corrected.abs_diff(bias)));
+        }
+        total
+    }
+
     /// [`super::template_sums`] in two passes of dual multiply-accumulates over each chunk
     /// (even in length, or ending a buffer whose rows end in their zero padding column, so its
     /// values pair up): the gradients' sums and products, then the intensities' with
@@ -413,7 +487,16 @@ pub(crate) mod portable {
     /// targets, short of flash, unroll only the lengths of the flight presets' 7 and 9 px
     /// windows, not those of the 21 px default.
     #[inline(always)]
-    pub(crate) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+    pub(crate) fn widen_rows(
+        block: &[u8],
+        stride: usize,
+        cols: usize,
+        out: &mut [i16],
+        pitch: usize,
+    ) {
+        if pitch != cols {
+            return copy_any_rows(block, stride, cols, out, pitch);
+        }
         match cols {
             8 => copy_rows::<8>(block, stride, out),
             10 => copy_rows::<10>(block, stride, out),
@@ -422,18 +505,19 @@ pub(crate) mod portable {
             22 => copy_rows::<22>(block, stride, out),
             #[cfg(not(target_os = "none"))]
             24 => copy_rows::<24>(block, stride, out),
-            _ => copy_any_rows(block, stride, cols, out),
+            _ => copy_any_rows(block, stride, cols, out, cols),
         }
     }
 
-    /// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`cols` apart).
+    /// Copies rows of `cols` pixels, `stride` apart in `block`, into `out` (`pitch` apart).
     #[inline(never)]
-    fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
+    fn copy_any_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16], pitch: usize) {
         for (dst, src) in out
-            .chunks_exact_mut(cols.max(1))
+            .chunks_mut(pitch.max(1))
             .zip(block.chunks(stride.max(1)))
         {
             dst.iter_mut()
+                .take(cols)
                 .zip(src)
                 .for_each(|(d, &s)| *d = i16::from(s));
         }
@@ -815,21 +899,77 @@ mod tests {
         }
     }
 
-    /// Blocks of every width up to 40 from frames of several strides: the same rows as the
-    /// portable copy, and nothing written past them.
+    /// Windows the SSE2 residual takes and those it leaves to the portable code, on pixels and
+    /// on any `i16`, with LK's weights, gains and biases and others: the same sums as the
+    /// portable rows, whatever the template's padding holds.
+    #[test]
+    fn residuals_agree_with_the_reference() {
+        const MAX: usize = 63;
+        let mut v = Values(0x5E5);
+        let next32 = |v: &mut Values| (i32::from(v.next()) << 16) ^ i32::from(v.next());
+        for round in 0..40 {
+            for win in [1, 3, 6, 7, 8, 9, 15, 21, 31, MAX] {
+                let p = win + 1;
+                let n = win * p;
+                let mut block = [0i16; (MAX + 1) * (MAX + 1) + 1];
+                let mut intensity = [0i16; MAX * (MAX + 1)];
+                for b in block.iter_mut().take(p * p + 1) {
+                    *b = if round % 2 == 0 {
+                        v.next() & 0xFF
+                    } else {
+                        v.next()
+                    };
+                }
+                for i in intensity.iter_mut().take(n) {
+                    *i = if round % 2 == 0 {
+                        (v.next() & 0xFF) * 32
+                    } else {
+                        v.next()
+                    };
+                }
+                let w = weights(&mut v).map(|w| w as i16);
+                let gain = match round % 4 {
+                    0 | 1 => (1 << 14) + (next32(&mut v) & 0x3_FFFF),
+                    2 => next32(&mut v) >> 1,
+                    _ => next32(&mut v),
+                };
+                let bias = next32(&mut v);
+                let (block, intensity) = (&block[..p * p + 1], &intensity[..n]);
+                let fast = abs_residual(&w, block, p, intensity, (gain, bias));
+                let reference = portable::abs_residual(&w, block, p, intensity, (gain, bias));
+                assert_eq!(
+                    fast, reference,
+                    "win {win} round {round} {w:?} {gain} {bias}"
+                );
+            }
+        }
+    }
+
+    /// Blocks of every width up to 40 from frames of several strides, into rows as far apart
+    /// or further: the same rows as the portable copy, and nothing else written.
     #[test]
     fn widened_rows_agree_with_the_reference() {
         let mut v = Values(0xF00D);
         let frame: [u8; 64 * 48] = core::array::from_fn(|_| v.next() as u8);
         for cols in 1..=40 {
             for (stride, rows) in [(cols, 1), (cols, 5), (64, 12), (cols + 3, 9)] {
-                let span = (rows - 1) * stride + cols;
-                let block = &frame[7..7 + span];
-                let (mut fast, mut reference) = ([-1i16; 600], [-1i16; 600]);
-                widen_rows(block, stride, cols, &mut fast[..rows * cols + 3]);
-                portable::widen_rows(block, stride, cols, &mut reference[..rows * cols + 3]);
-                assert_eq!(fast, reference, "{cols} {stride} {rows}");
-                assert!(fast[rows * cols..].iter().all(|&x| x == -1));
+                for pitch in [cols, cols + 1, cols + 5] {
+                    let span = (rows - 1) * stride + cols;
+                    let block = &frame[7..7 + span];
+                    let len = rows * pitch + 3;
+                    let (mut fast, mut reference) = ([-1i16; 1024], [-1i16; 1024]);
+                    widen_rows(block, stride, cols, &mut fast[..len], pitch);
+                    portable::widen_rows(block, stride, cols, &mut reference[..len], pitch);
+                    assert_eq!(fast, reference, "{cols} {stride} {rows} {pitch}");
+                    for (k, &x) in fast.iter().enumerate() {
+                        let (r, c) = (k / pitch, k % pitch);
+                        if r < rows && c < cols {
+                            assert_eq!(x, i16::from(block[r * stride + c]));
+                        } else {
+                            assert_eq!(x, -1, "{k}");
+                        }
+                    }
+                }
             }
         }
     }

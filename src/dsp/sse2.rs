@@ -30,13 +30,14 @@
 
 use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
-    __m128i, _mm_add_epi16, _mm_add_epi32, _mm_and_si128, _mm_cmpeq_epi16, _mm_loadl_epi64,
+    __m128i, _mm_add_epi16, _mm_add_epi32, _mm_add_epi64, _mm_and_si128, _mm_andnot_si128,
+    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_loadl_epi64,
     _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
     _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
     _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
     _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
     _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
-    _mm_unpacklo_epi64, _mm_unpacklo_epi8,
+    _mm_unpacklo_epi64, _mm_unpacklo_epi8, _mm_xor_si128,
 };
 
 /// `i16` values in a register.
@@ -248,8 +249,156 @@ fn correlate_pass(run: &[i16], t: [&[i16]; 3]) -> Option<([[i32; 3]; 2], i32)> {
     ) {
         add_block(x0, x1, [y0, y1, y2], x0_masked);
     }
-    let dots = acc.map(|acc| acc.map(|a| lanes_sum(a, 0)));
-    Some((dots, lanes_sum(total, 0)))
+    let [[a0, a1, a2], [b0, b1, b2]] = acc;
+    let [d0, d1, d2, d3] = lane_sums4([a0, a1, a2, b0]);
+    let [d4, d5, sum, _] = lane_sums4([b1, b2, total, zero()]);
+    Some(([[d0, d1, d2], [d3, d4, d5]], sum))
+}
+
+/// [`super::runs::abs_residual`] over the window's flat run, as [`correlate`] reads it: the
+/// samples at the run's `k` from the block's values at `k`, `k + 1`, `k + pitch` and
+/// `k + pitch + 1`, eight at a time, their distances in 32-bit lanes widened into 64-bit sums;
+/// a lane counter of columns drops each row's padding position, and the last block, overlapping
+/// the one before, the lanes it counted. The gain times `I` as two PMADDWDs of `I` with the
+/// gain's low 15 bits and the rest, the second shifted by 15: wrapping as the portable
+/// product does, for gains of magnitude below `2^30` (the others go to the portable code, as
+/// do windows under 7 px).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(never)]
+pub(super) fn abs_residual(
+    w: &[i16; 4],
+    block: &[i16],
+    pitch: usize,
+    intensity: &[i16],
+    (gain, bias): (i32, i32),
+) -> u64 {
+    let p = pitch;
+    let win = p.saturating_sub(1);
+    let n = win * p;
+    let weights = weight_pairs(&w.map(i32::from));
+    let shaped = win >= LANES - 1 && intensity.len() == n && block.len() > p * p;
+    // The gain's low 15 bits and the rest, and the window's columns, as `i16`.
+    let small = (
+        i16::try_from(gain & 0x7FFF),
+        i16::try_from(gain >> 15),
+        i16::try_from(p),
+    );
+    let (Some((upper, lower)), true, (Ok(gain_low), Ok(gain_high), Ok(p16))) =
+        (weights, shaped, small)
+    else {
+        return portable::abs_residual(w, block, pitch, intensity, (gain, bias));
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let (low15, high, bias_lanes, round) = unsafe {
+        (
+            pairs_of(gain_low, 0),
+            pairs_of(gain_high, 0),
+            _mm_set1_epi32(bias),
+            _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1)),
+        )
+    };
+    // The distances of the eight samples of the run from `k`, those in `drop` lanes zeroed,
+    // widened and added to `acc`.
+    let mut acc = (zero(), zero());
+    let mut add8 = |k: usize, drop: __m128i| -> Option<()> {
+        let (p0, p1) = (load_at(block, k)?, load_at(block, k + 1)?);
+        let (p2, p3) = (load_at(block, k + p)?, load_at(block, k + p + 1)?);
+        let i = load_at(intensity, k)?;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe {
+            let four = |top, bottom, i, drop| {
+                let sum = add(add(madd(top, upper), madd(bottom, lower)), round);
+                // (sum >> 9) as i16, shifted up 16: the low 16 bits of the shift by 9.
+                let j = _mm_slli_epi32::<16>(_mm_srai_epi32::<9>(sum));
+                let gi = add(madd(i, low15), _mm_slli_epi32::<15>(madd(i, high)));
+                let corrected = _mm_sub_epi32(j, gi);
+                let below = _mm_cmpgt_epi32(bias_lanes, corrected);
+                let d = _mm_sub_epi32(corrected, bias_lanes);
+                // |corrected - bias| as u32: the wrapped difference, negated where negative.
+                let distance =
+                    _mm_andnot_si128(drop, _mm_sub_epi32(_mm_xor_si128(d, below), below));
+                (
+                    _mm_unpacklo_epi32(distance, zero()),
+                    _mm_unpackhi_epi32(distance, zero()),
+                )
+            };
+            let (drop_low, drop_high) = (
+                _mm_unpacklo_epi16(drop, drop),
+                _mm_unpackhi_epi16(drop, drop),
+            );
+            let (a, b) = four(
+                _mm_unpacklo_epi16(p0, p1),
+                _mm_unpacklo_epi16(p2, p3),
+                _mm_unpacklo_epi16(i, zero()),
+                drop_low,
+            );
+            let (c, d) = four(
+                _mm_unpackhi_epi16(p0, p1),
+                _mm_unpackhi_epi16(p2, p3),
+                _mm_unpackhi_epi16(i, zero()),
+                drop_high,
+            );
+            acc = (
+                _mm_add_epi64(acc.0, _mm_add_epi64(a, c)),
+                _mm_add_epi64(acc.1, _mm_add_epi64(b, d)),
+            );
+        }
+        Some(())
+    };
+    // The column of each lane's value, and the padding column.
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let (eight, wrap, padding) = unsafe {
+        (
+            _mm_set1_epi16(8),
+            _mm_set1_epi16(p16),
+            _mm_set1_epi16(p16 - 1),
+        )
+    };
+    let lanes = load(&[0, 1, 2, 3, 4, 5, 6, 7]);
+    let mut column = lanes;
+    let mut k = 0;
+    let mut done = Some(());
+    while k + LANES <= n {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let drop = unsafe { _mm_cmpeq_epi16(column, padding) };
+        done = done.and(add8(k, drop));
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        column = unsafe {
+            let next = _mm_add_epi16(column, eight);
+            _mm_sub_epi16(
+                next,
+                _mm_and_si128(
+                    _mm_cmpgt_epi16(next, _mm_sub_epi16(wrap, load(&[1; LANES]))),
+                    wrap,
+                ),
+            )
+        };
+        k += LANES;
+    }
+    let rest = n - k;
+    if rest > 0 {
+        // The last eight values, from column p - 8 of the last row (n is a multiple of p);
+        // the lanes the blocks before counted dropped too.
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let drop = unsafe {
+            let start = _mm_set1_epi16(p16 - 8);
+            // rest < 8.
+            #[allow(clippy::cast_possible_truncation)]
+            let counted = _mm_cmpgt_epi16(_mm_set1_epi16((LANES - rest) as i16), lanes);
+            _mm_or_si128(
+                _mm_cmpeq_epi16(_mm_add_epi16(start, lanes), padding),
+                counted,
+            )
+        };
+        done = done.and(add8(n - LANES, drop));
+    }
+    if done.is_none() {
+        return portable::abs_residual(w, block, pitch, intensity, (gain, bias));
+    }
+    let mut halves = [0u64; 2];
+    // SAFETY: writes the 16 bytes of `halves`, with no alignment needed (module docs).
+    unsafe { _mm_storeu_si128(halves.as_mut_ptr().cast(), _mm_add_epi64(acc.0, acc.1)) };
+    halves[0].wrapping_add(halves[1])
 }
 
 /// [`super::runs::template_sums`]: the nine products of each block of eight values in one pass
@@ -422,41 +571,38 @@ pub(super) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
     }
 }
 
-/// [`super::runs::widen_rows`]: each row in blocks of eight pixels widened to `i16` (the last
-/// block overlapping the one before when `cols` is not a multiple of eight). Rows under eight
+/// [`super::runs::widen_rows`]: each row in blocks of eight pixels widened to `i16`, the last
+/// block overlapping the one before when `cols` is not a multiple of eight. Rows under eight
 /// pixels go to the portable code.
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
-pub(super) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16]) {
-    if cols < LANES || stride < cols {
-        return portable::widen_rows(block, stride, cols, out);
+pub(super) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16], pitch: usize) {
+    if cols < LANES || stride < cols || pitch < cols {
+        return portable::widen_rows(block, stride, cols, out, pitch);
     }
-    let last = cols - LANES;
-    for (r, dst) in out.chunks_exact_mut(cols).enumerate() {
-        let Some(src) = r.checked_mul(stride).and_then(|start| block.get(start..)) else {
-            return;
-        };
-        if src.len() < cols {
-            return;
+    let widen = |src: &[u8], dst: &mut [i16], at: usize| {
+        let pixels = src.get(at..at + LANES).map(<&[u8; LANES]>::try_from);
+        if let Some(Ok(pixels)) = pixels {
+            // SAFETY: reads the 8 bytes of `pixels`, with no alignment needed (module docs);
+            // the rest is register arithmetic on an SSE2 target.
+            let wide = unsafe {
+                let bytes = _mm_loadl_epi64(pixels.as_ptr().cast());
+                _mm_unpacklo_epi8(bytes, zero())
+            };
+            store_at(dst, at, wide);
         }
+    };
+    let last = cols - LANES;
+    // Row by row without `chunks`, whose zip would divide the lengths by the strides.
+    let (mut from, mut to) = (0, 0);
+    while let (Some(src), Some(dst)) = (block.get(from..from + cols), out.get_mut(to..to + cols)) {
         let mut c = 0;
-        loop {
-            let start = c.min(last);
-            let pixels = src.get(start..start + LANES).map(<&[u8; LANES]>::try_from);
-            if let Some(Ok(pixels)) = pixels {
-                // SAFETY: reads the 8 bytes of `pixels`, with no alignment needed (module
-                // docs); the rest is register arithmetic on an SSE2 target.
-                let wide = unsafe {
-                    let bytes = _mm_loadl_epi64(pixels.as_ptr().cast());
-                    _mm_unpacklo_epi8(bytes, zero())
-                };
-                store_at(dst, start, wide);
-            }
-            if start == last {
-                break;
-            }
+        while c < last {
+            widen(src, dst, c);
             c += LANES;
         }
+        widen(src, dst, last);
+        (from, to) = (from + stride, to + pitch);
     }
 }
 
@@ -544,6 +690,11 @@ pub(super) fn sampled_template(
     // Patches up to 16 px wide, in two registers a row, when the source has the slack the
     // second register's loads reach into.
     let slack = source.len() >= n * n + LANES;
+    if slack && (win == 9 || win == 10) {
+        let done = template_rows_12(weights, source, n, pitch, [intensity, dx, dy]);
+        debug_assert!(done.is_some(), "shaped inputs hold every block");
+        return;
+    }
     if slack && win + 2 <= 2 * LANES {
         let done = template_rows_16(weights, source, n, pitch, [intensity, dx, dy]);
         debug_assert!(done.is_some(), "shaped inputs hold every block");
@@ -561,6 +712,140 @@ pub(super) fn sampled_template(
         }
         c += LANES;
     }
+}
+
+/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
+/// two window columns: the patch rows' samples from column 8 on need only their first four
+/// (the block's columns and the two to their right), so that block runs on four lanes, its
+/// sums in one register of 32-bit lanes, and stores its two first values (the second, for a
+/// 9 px window, lands in the padding column, which the caller clears).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_rows_12(
+    (upper, lower): (__m128i, __m128i),
+    source: &[i16],
+    n: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    const REACH: usize = LANES + 1 + 4;
+    let win = n.checked_sub(3)?;
+    let load4 = |row: &[i16; REACH], k: usize| -> Option<__m128i> {
+        let four: &[i16; 4] = row.get(k..k + 4)?.try_into().ok()?;
+        // SAFETY: reads the 8 bytes of `four`, with no alignment needed (module docs).
+        Some(unsafe { _mm_loadl_epi64(four.as_ptr().cast()) })
+    };
+    // Source row `r`'s interleaved pairs (value k, value k + 1): columns 0..8 in two
+    // registers, 8..12 in one.
+    let pairs = |r: usize| -> Option<((__m128i, __m128i), __m128i)> {
+        let start = r.checked_mul(n)?;
+        let row: &[i16; REACH] = source
+            .get(start..start.checked_add(REACH)?)?
+            .try_into()
+            .ok()?;
+        let at = |k: usize| {
+            row.get(k..k + LANES)
+                .and_then(|v| v.try_into().ok())
+                .map(load)
+        };
+        let (a, b) = (at(0)?, at(1)?);
+        let (c, d) = (load4(row, LANES)?, load4(row, LANES + 1)?);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe {
+            (
+                (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+                _mm_unpacklo_epi16(c, d),
+            )
+        })
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let (round, weights) = unsafe {
+        (
+            _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1)),
+            pairs_of(3, 10),
+        )
+    };
+    let four = |t, b| {
+        let sum = add(add(madd(t, upper), madd(b, lower)), round);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe { _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum) }
+    };
+    // `3 (a + c) + 10 b` of the first four lanes.
+    let smooth4 = |a: __m128i, b: __m128i, c: __m128i| {
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        unsafe { madd(_mm_unpacklo_epi16(_mm_add_epi16(a, c), b), weights) }
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let rescale4 = |s: __m128i| unsafe {
+        let round = _mm_set1_epi32(1 << (SAMPLE_BITS - 1));
+        let v = _mm_srai_epi32::<{ SAMPLE_BITS as i32 }>(add(s, round));
+        _mm_packs_epi32(v, v)
+    };
+    // The first two values of a register at `at` in `buf`, if it holds them.
+    let put2 = |buf: &mut [i16], at: usize, v: __m128i| {
+        if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
+            // SAFETY: register arithmetic on an SSE2 target (module docs).
+            let bits = unsafe { _mm_cvtsi128_si32(v) };
+            // The register's first two 16-bit lanes, low first.
+            #[allow(clippy::cast_possible_truncation)]
+            let lanes = [bits as i16, (bits >> 16) as i16];
+            *two = lanes;
+        }
+    };
+    let (mut top, mut top_right) = pairs(0)?;
+    let zeros = (zero(), zero());
+    let (mut d0, mut s0) = ([zero(); 2], [zeros; 2]);
+    let (mut d1, mut s1) = ([zero(); 2], [zero(); 2]);
+    for r in 0..n - 1 {
+        let (bottom, bottom_right) = pairs(r + 1)?;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (a0, a1) = unsafe {
+            let a0 = _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1));
+            let right = four(top_right, bottom_right);
+            (a0, _mm_packs_epi32(right, right))
+        };
+        (top, top_right) = (bottom, bottom_right);
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (middle0, right0, middle1, right1) = unsafe {
+            (
+                _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
+                _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
+                _mm_srli_si128::<2>(a1),
+                _mm_srli_si128::<4>(a1),
+            )
+        };
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let (diff0, diff1) = unsafe { (_mm_sub_epi16(right0, a0), _mm_sub_epi16(right1, a1)) };
+        let smooth0 = smooth(a0, middle0, right0);
+        let smooth1 = smooth4(a1, middle1, right1);
+        if r >= 1 && r <= win {
+            let at = (r - 1) * pitch;
+            store_at(intensity, at, middle0);
+            put2(intensity, at + LANES, middle1);
+        }
+        if r >= 2 {
+            let at = (r - 2) * pitch;
+            // SAFETY: register arithmetic on an SSE2 target (module docs).
+            let (gx0, gy0, gx1, gy1) = unsafe {
+                let (low, high) = smooth(d0[0], d0[1], diff0);
+                let gy_low = _mm_sub_epi32(smooth0.0, s0[0].0);
+                let gy_high = _mm_sub_epi32(smooth0.1, s0[0].1);
+                (
+                    rescale_exact(low, high),
+                    rescale_exact(gy_low, gy_high),
+                    rescale4(smooth4(d1[0], d1[1], diff1)),
+                    rescale4(_mm_sub_epi32(smooth1, s1[0])),
+                )
+            };
+            store_at(dx, at, gx0);
+            store_at(dy, at, gy0);
+            put2(dx, at + LANES, gx1);
+            put2(dy, at + LANES, gy1);
+        }
+        (d0, s0) = ([d0[1], diff0], [s0[1], smooth0]);
+        (d1, s1) = ([d1[1], diff1], [s1[1], smooth1]);
+    }
+    Some(())
 }
 
 /// [`sampled_template`] for windows of 8 to 14 px, whose patch rows are at most 16 samples:

@@ -33,8 +33,7 @@ use super::window::{
     gather, in_layout, in_layout_mut, mask_outside, scharr_smooth, Layout, Loops, TemplateBuffers,
     TemplateOut, WindowOrigin, INTENSITY_BITS, WEIGHT_BITS,
 };
-use crate::dsp::runs::{self, pair};
-use crate::dsp::smlad;
+use crate::dsp::runs;
 use crate::frame::ImageView;
 
 /// The packed, row-by-row loops.
@@ -134,9 +133,8 @@ impl Loops for Rows {
         clear_padding(layout, j);
     }
 
-    /// One pass over the block `correlate` gathered into `source` for this integer position:
-    /// each sample's bilinear sum as two dual multiply-accumulates (the pixel pair of each row
-    /// against its two weights), corrected and summed at once; nothing is gathered or stored.
+    /// One pass over the block `correlate` gathered into `source` for this integer position
+    /// ([`runs::abs_residual`]): nothing is gathered or stored.
     fn abs_residual(
         _frame: &ImageView<'_>,
         origin: &WindowOrigin,
@@ -148,43 +146,9 @@ impl Loops for Rows {
         let p = layout.pitch;
         // (win + 1)^2 + 1 <= source_len = (win + 3)^2.
         let block = in_layout(source, 0..(layout.win + 1) * p + 1);
-        let [w00, w01, w10, w11] = origin.w.map(|w| u32::from(w as u16));
-        let weights = (w00 | (w01 << 16), w10 | (w11 << 16));
-        let rows = row_pairs(block, p).zip(intensity.chunks_exact(p));
-        rows.take(layout.win)
-            .map(|((top, bottom), i_row)| {
-                residual_row(
-                    weights,
-                    top,
-                    bottom,
-                    in_layout(i_row, 0..layout.win),
-                    correction,
-                )
-            })
-            .sum()
+        let Correction { gain, bias } = correction;
+        runs::abs_residual(&origin.w, block, p, intensity, (gain, bias))
     }
-}
-
-/// [`Rows::abs_residual`] of one row: the samples between `top` and `bottom` (pixel `k` and
-/// `k + 1` of each) against the template row `i`.
-#[inline(never)]
-fn residual_row(
-    (upper, lower): (u32, u32),
-    top: &[i16],
-    bottom: &[i16],
-    i: &[i16],
-    correction: Correction,
-) -> u64 {
-    const ROUND: i32 = 1 << (WEIGHT_BITS - INTENSITY_BITS - 1);
-    let mut total = 0u64;
-    let pixels = top.windows(2).zip(bottom.windows(2));
-    for (&i, (t, b)) in i.iter().zip(pixels) {
-        // The same sum and rounding as `bilinear`, two products per instruction.
-        let sum = smlad(pair(b), lower, smlad(pair(t), upper, ROUND));
-        let j = (sum >> (WEIGHT_BITS - INTENSITY_BITS)) as i16;
-        total += u64::from(correction.distance(i, j));
-    }
-    total
 }
 
 /// Gathers the next window's `(win + 1)` square of source pixels into `source`, rows
@@ -205,12 +169,13 @@ fn next_block<'s>(
     in_layout(source, 0..n * n + 1)
 }
 
-/// Zeroes the padding column of a window buffer.
+/// Zeroes the padding column of a window buffer (by steps of a row, not `chunks`, whose
+/// count is a division).
 fn clear_padding(layout: &Layout, buf: &mut [i16]) {
-    for row in buf.chunks_exact_mut(layout.pitch) {
-        if let Some(pad) = row.get_mut(layout.win) {
-            *pad = 0;
-        }
+    let mut k = layout.win;
+    while let Some(pad) = buf.get_mut(k) {
+        *pad = 0;
+        k += layout.pitch;
     }
 }
 

@@ -217,33 +217,65 @@ pub(crate) fn gather(
     cols: usize,
     out: &mut [i16],
 ) {
+    let stride = frame.stride();
     if let Some(block) = frame.block(origin.x, origin.y, cols, rows) {
         // Inside the frame: a plain copy, row by row.
-        crate::dsp::runs::widen_rows(block, frame.stride(), cols, out);
+        crate::dsp::runs::widen_rows(block, stride, cols, out, cols);
         return;
     }
     let (width, height) = (frame.width() as isize, frame.height() as isize);
-    // The part of each row that lies in the frame, as offsets into the row.
+    // The part of each row that lies in the frame, as offsets into the row, and the rows that
+    // do.
     let start = (-origin.x).clamp(0, cols as isize) as usize;
     let end = (width - origin.x).clamp(start as isize, cols as isize) as usize;
-    let first_x = (origin.x + start as isize).max(0) as usize;
+    let top = (-origin.y).clamp(0, rows as isize) as usize;
+    let bottom = (height - origin.y).clamp(top as isize, rows as isize) as usize;
+    let inside = frame.block(
+        origin.x + start as isize,
+        origin.y + top as isize,
+        end - start,
+        bottom - top,
+    );
+    let Some(inside) = inside.filter(|_| start < end && top < bottom) else {
+        // No pixel of the window in the frame (its rows or its columns all outside).
+        return gather_outside(frame, origin, rows, cols, out);
+    };
+    // The part in the frame, then each of its rows repeats its first and last pixel, which
+    // are the frame's, outwards; the rows above and below repeat the first and last row.
+    let out = out.get_mut(..rows * cols).unwrap_or(&mut []);
+    let first = top * cols + start;
+    crate::dsp::runs::widen_rows(inside, stride, end - start, &mut out[first..], cols);
+    for r in top..bottom {
+        let row = &mut out[r * cols..(r + 1) * cols];
+        let (left, right) = (row[start], row[end - 1]);
+        row[..start].fill(left);
+        row[end..].fill(right);
+    }
+    for r in 0..top {
+        out.copy_within(top * cols..(top + 1) * cols, r * cols);
+    }
+    for r in bottom..rows {
+        out.copy_within((bottom - 1) * cols..bottom * cols, r * cols);
+    }
+}
+
+/// [`gather`] for a window none of whose pixels is in the frame: every value repeats the
+/// frame's pixel nearest to it.
+fn gather_outside(
+    frame: &ImageView<'_>,
+    origin: &WindowOrigin,
+    rows: usize,
+    cols: usize,
+    out: &mut [i16],
+) {
+    let (width, height) = (frame.width() as isize, frame.height() as isize);
     for (r, dst) in out.chunks_exact_mut(cols).take(rows).enumerate() {
         let y = (origin.y + r as isize).clamp(0, height - 1) as usize;
         let row = frame.row(y);
-        if let (Some(dst), Some(src)) = (
-            dst.get_mut(start..end),
-            row.get(first_x..first_x + end - start),
-        ) {
-            dst.iter_mut()
-                .zip(src)
-                .for_each(|(d, &s)| *d = i16::from(s));
+        for (c, d) in dst.iter_mut().enumerate() {
+            let x = (origin.x + c as isize).clamp(0, width - 1) as usize;
+            *d = row.get(x).map_or(0, |&v| i16::from(v));
         }
-        let (first, last) = (row.first(), row.last());
-        let (first, last) = (first.copied().unwrap_or(0), last.copied().unwrap_or(0));
-        dst.iter_mut()
-            .take(start)
-            .for_each(|d| *d = i16::from(first));
-        dst.iter_mut().skip(end).for_each(|d| *d = i16::from(last));
     }
 }
 
@@ -424,6 +456,38 @@ mod tests {
             let out = window(&frame, -50 << 16, 10 << 16, 3);
             assert_eq!(&out[..9], &[288, 288, 288, 320, 320, 320, 352, 352, 352]);
         });
+    }
+
+    /// Blocks inside the frame, over each edge and corner, and wholly outside it: every value
+    /// is the frame's pixel nearest to it, and nothing past the block is written.
+    #[test]
+    fn gather_repeats_the_nearest_pixel() {
+        const W: usize = 23;
+        const H: usize = 17;
+        let px = noise::<{ W * H }>(11);
+        let frame = ImageView::packed(&px, W, H).unwrap();
+        for (rows, cols) in [(1, 1), (4, 3), (10, 10), (12, 12), (9, 20), (30, 30)] {
+            for y in -35..H as isize + 5 {
+                for x in -35..W as isize + 5 {
+                    let origin = WindowOrigin {
+                        x,
+                        y,
+                        w: [1 << 14, 0, 0, 0],
+                    };
+                    let mut out = [-1i16; 32 * 32];
+                    gather(&frame, &origin, rows, cols, &mut out[..rows * cols + 2]);
+                    for r in 0..rows {
+                        for c in 0..cols {
+                            let sy = (y + r as isize).clamp(0, H as isize - 1) as usize;
+                            let sx = (x + c as isize).clamp(0, W as isize - 1) as usize;
+                            let want = i16::from(px[sy * W + sx]);
+                            assert_eq!(out[r * cols + c], want, "{rows}x{cols} at {x},{y}");
+                        }
+                    }
+                    assert!(out[rows * cols..].iter().all(|&v| v == -1));
+                }
+            }
+        }
     }
 
     #[test]

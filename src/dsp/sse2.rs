@@ -174,10 +174,16 @@ pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4
         let part = t.map(|v| v.get(start..start + len).unwrap_or(&[]));
         for (pass, base) in [0, p].into_iter().enumerate() {
             let from = base + start;
-            let Some(([first, second], sum)) = block
-                .get(from..from + len + 1)
-                .and_then(|run| correlate_pass(run, part))
-            else {
+            let run = block.get(from..from + len + 1);
+            // The runs of the flight presets' windows and of the 21 px default, of known
+            // lengths: their loops without bounds checks.
+            let products = match len {
+                56 => run.and_then(|run| correlate_pass_of::<56>(run, part)),
+                90 => run.and_then(|run| correlate_pass_of::<90>(run, part)),
+                462 => run.and_then(|run| correlate_pass_of::<462>(run, part)),
+                _ => run.and_then(|run| correlate_pass(run, part)),
+            };
+            let Some(([first, second], sum)) = products else {
                 return portable::correlate(block, p, t);
             };
             let pair = sums.iter_mut().skip(2 * pass).zip([first, second]);
@@ -205,6 +211,54 @@ pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4
     sums[2][0] = i64::from(runs[1] - right[1]);
     sums[3][0] = i64::from(runs[1] - left[1]);
     sums
+}
+
+/// [`correlate_pass`] for runs of `LEN` values.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn correlate_pass_of<const LEN: usize>(
+    run: &[i16],
+    t: [&[i16]; 3],
+) -> Option<([[i32; 3]; 2], i32)> {
+    let first: &[i16; LEN] = run.get(..LEN)?.try_into().ok()?;
+    let second: &[i16; LEN] = run.get(1..LEN + 1)?.try_into().ok()?;
+    let [t0, t1, t2]: [&[i16; LEN]; 3] = [
+        t[0].try_into().ok()?,
+        t[1].try_into().ok()?,
+        t[2].try_into().ok()?,
+    ];
+    if LEN < LANES {
+        return None;
+    }
+    let at = |v: &[i16; LEN], k: usize| -> __m128i {
+        let block: &[i16; LANES] = v[k..k + LANES].try_into().unwrap_or(&[0; LANES]);
+        load(block)
+    };
+    let ones = pairs_of(1, 1);
+    let mut acc = [[zero(); 3]; 2];
+    let mut total = zero();
+    let mut add_block = |k: usize, mask: Option<__m128i>| {
+        let (x0, x1) = (at(first, k), at(second, k));
+        let [y0, y1, y2] = [at(t0, k), at(t1, k), at(t2, k)].map(|y| mask.map_or(y, |m| and(y, m)));
+        for (acc, x) in acc.iter_mut().zip([x0, x1]) {
+            *acc = [
+                add(acc[0], madd(x, y0)),
+                add(acc[1], madd(x, y1)),
+                add(acc[2], madd(x, y2)),
+            ];
+        }
+        total = add(total, madd(mask.map_or(x0, |m| and(x0, m)), ones));
+    };
+    for b in 0..LEN / LANES {
+        add_block(b * LANES, None);
+    }
+    if LEN % LANES != 0 {
+        add_block(LEN - LANES, load_at(&MASKS, LEN % LANES));
+    }
+    let [[a0, a1, a2], [b0, b1, b2]] = acc;
+    let [d0, d1, d2, d3] = lane_sums4([a0, a1, a2, b0]);
+    let [d4, d5, sum, _] = lane_sums4([b1, b2, total, zero()]);
+    Some(([[d0, d1, d2], [d3, d4, d5]], sum))
 }
 
 /// The dot products of the runs `run[..len]` and `run[1..len + 1]` with the three template
@@ -410,61 +464,105 @@ pub(super) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 
     if n < LANES || dx.len() != n || dy.len() != n {
         return portable::template_sums(intensity, dx, dy);
     }
-    let ones = pairs_of(1, 1);
+    // The buffers of the flight presets' windows and of the 21 px default, of known lengths:
+    // their loops without bounds checks.
+    let sums = match n {
+        56 => template_sums_of::<56>(intensity, dx, dy),
+        90 => template_sums_of::<90>(intensity, dx, dy),
+        462 => template_sums_of::<462>(intensity, dx, dy),
+        _ => None,
+    };
+    if let Some(sums) = sums {
+        return sums;
+    }
     let mut s = [0i64; 9];
     let chunks = intensity
         .chunks(TEMPLATE_CHUNK)
         .zip(dx.chunks(TEMPLATE_CHUNK).zip(dy.chunks(TEMPLATE_CHUNK)));
     for (i, (gx, gy)) in chunks {
-        if i.len() < LANES {
-            let part = portable::template_sums(i, gx, gy);
-            for (total, v) in s.iter_mut().zip(part) {
-                *total = total.wrapping_add(v);
-            }
-            continue;
-        }
-        let mut acc = [zero(); 9];
-        let mut add9 = |v, x, y| {
-            let terms = [
-                madd(x, x),
-                madd(x, y),
-                madd(y, y),
-                madd(x, ones),
-                madd(y, ones),
-                madd(v, ones),
-                madd(v, v),
-                madd(v, x),
-                madd(v, y),
-            ];
-            for (acc, term) in acc.iter_mut().zip(terms) {
-                *acc = add(*acc, term);
-            }
+        let part = if i.len() < LANES {
+            portable::template_sums(i, gx, gy)
+        } else {
+            chunk_sums(i, gx, gy)
         };
-        for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
-            add9(v, x, y);
-        }
-        if let (Some(v), Some(x), Some(y)) = (last_masked(i), last_masked(gx), last_masked(gy)) {
-            add9(v, x, y);
-        }
-        let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
-        let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
-        let widened = [
-            i64::from(first[0]),
-            i64::from(first[1]),
-            i64::from(first[2]),
-            i64::from(first[3]),
-            i64::from(second[0]),
-            i64::from(second[1]),
-            // `Σ i²` of a chunk, read unsigned.
-            i64::from(second[2] as u32),
-            i64::from(second[3]),
-            i64::from(lanes_sum(a8, 0)),
-        ];
-        for (total, v) in s.iter_mut().zip(widened) {
+        for (total, v) in s.iter_mut().zip(part) {
             *total = total.wrapping_add(v);
         }
     }
     s
+}
+
+/// [`template_sums`] of buffers of `N` values (chunks of at least 8), in chunks of constant
+/// lengths.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_sums_of<const N: usize>(i: &[i16], x: &[i16], y: &[i16]) -> Option<[i64; 9]> {
+    let (i, x, y): (&[i16; N], &[i16; N], &[i16; N]) =
+        (i.try_into().ok()?, x.try_into().ok()?, y.try_into().ok()?);
+    let mut s = [0i64; 9];
+    let mut start = 0;
+    while start < N {
+        let end = (start + TEMPLATE_CHUNK).min(N);
+        let part = chunk_sums(&i[start..end], &x[start..end], &y[start..end]);
+        for (total, v) in s.iter_mut().zip(part) {
+            *total = total.wrapping_add(v);
+        }
+        start = end;
+    }
+    Some(s)
+}
+
+/// The sums of [`template_sums`] over one chunk of at least 8 values: the nine products of
+/// each block of eight values in one pass (the last, when the chunk is not a multiple of eight
+/// long, overlapping the one before, masked), and the lanes added at the end.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn chunk_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i64; 9] {
+    let ones = pairs_of(1, 1);
+    let mut acc = [zero(); 9];
+    let mut add9 = |v, x, y| {
+        let terms = [
+            madd(x, x),
+            madd(x, y),
+            madd(y, y),
+            madd(x, ones),
+            madd(y, ones),
+            madd(v, ones),
+            madd(v, v),
+            madd(v, x),
+            madd(v, y),
+        ];
+        for (acc, term) in acc.iter_mut().zip(terms) {
+            *acc = add(*acc, term);
+        }
+    };
+    let len = i.len().min(gx.len()).min(gy.len());
+    let at = |v: &[i16], k: usize| load_at(v, k).unwrap_or(zero());
+    let mut k = 0;
+    while k + LANES <= len {
+        add9(at(i, k), at(gx, k), at(gy, k));
+        k += LANES;
+    }
+    if k < len && len >= LANES {
+        let start = len - LANES;
+        let mask = load_at(&MASKS, len % LANES).unwrap_or(zero());
+        let masked = |v: &[i16]| and(at(v, start), mask);
+        add9(masked(i), masked(gx), masked(gy));
+    }
+    let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
+    let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
+    [
+        i64::from(first[0]),
+        i64::from(first[1]),
+        i64::from(first[2]),
+        i64::from(first[3]),
+        i64::from(second[0]),
+        i64::from(second[1]),
+        // `Σ i²` of a chunk, read unsigned.
+        i64::from(second[2] as u32),
+        i64::from(second[3]),
+        i64::from(lanes_sum(a8, 0)),
+    ]
 }
 
 /// The sums of the four lanes of each of four registers, wrapping: a transpose by unpacks,

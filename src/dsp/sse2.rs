@@ -1231,10 +1231,27 @@ pub(super) fn binomial_row(rows: &[&[u8]; 5], out: &mut [u8]) {
 #[inline(always)]
 fn binomial_blocks(rows: &[&[u8]; 5], out: &mut [u8]) -> Option<()> {
     let last = out.len().checked_sub(LANES)?;
+    let reach = rows.iter().map(|r| r.len()).min()?;
+    // The vertical sums of the block's 16 columns, when the block before computed them.
+    let mut ahead: Option<(__m128i, __m128i)> = None;
     let mut j = 0;
     loop {
         let block = j.min(last);
-        let pixels = binomial8(rows, block.checked_mul(2)?.checked_add(2)?)?;
+        let start = block.checked_mul(2)?.checked_add(2)?;
+        let pixels = match start.checked_add(32) {
+            // A whole block whose next 16 columns are in the rows: this block's sums and
+            // those, which the next block starts from.
+            Some(end) if block == j && end <= reach => {
+                let here = match ahead {
+                    Some(sums) => sums,
+                    None => vertical_sums16(rows, start)?,
+                };
+                let next = vertical_sums16(rows, start.checked_add(16)?)?;
+                ahead = Some(next);
+                binomial8_from(here, next)
+            }
+            _ => binomial8(rows, start)?,
+        };
         let target: &mut [u8; 8] = out
             .get_mut(block..block.checked_add(LANES)?)?
             .try_into()
@@ -1245,5 +1262,26 @@ fn binomial_blocks(rows: &[&[u8]; 5], out: &mut [u8]) -> Option<()> {
             return Some(());
         }
         j = j.saturating_add(LANES);
+    }
+}
+
+/// [`binomial8`] from the vertical sums of its 16 columns, `(E[m], O[m])`, and of the 16 after
+/// them, `(E[m + 8], O[m + 8])`: `E[m + 1]`, `O[m + 1]` and `E[m + 2]` by lane shifts across
+/// the two, instead of a second pass over the rows.
+#[inline(always)]
+fn binomial8_from((even, odd): (__m128i, __m128i), (even8, odd8): (__m128i, __m128i)) -> __m128i {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let even1 = _mm_or_si128(_mm_srli_si128::<2>(even), _mm_slli_si128::<14>(even8));
+        let odd1 = _mm_or_si128(_mm_srli_si128::<2>(odd), _mm_slli_si128::<14>(odd8));
+        let even2 = _mm_or_si128(_mm_srli_si128::<4>(even), _mm_slli_si128::<12>(even8));
+        // The same sum as `binomial8`'s.
+        let fours = _mm_add_epi16(_mm_add_epi16(odd, odd1), even1);
+        let sum = _mm_add_epi16(
+            _mm_add_epi16(even, even2),
+            _mm_add_epi16(_mm_slli_epi16::<2>(fours), _mm_slli_epi16::<1>(even1)),
+        );
+        let rounded = _mm_srli_epi16::<8>(_mm_add_epi16(sum, _mm_set1_epi16(128)));
+        _mm_packus_epi16(rounded, rounded)
     }
 }

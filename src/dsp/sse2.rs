@@ -31,10 +31,10 @@
 use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
     __m128i, _mm_add_epi16, _mm_add_epi32, _mm_add_epi64, _mm_and_si128, _mm_andnot_si128,
-    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_loadl_epi64,
-    _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
-    _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
-    _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
+    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_cvtsi32_si128,
+    _mm_loadl_epi64, _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128,
+    _mm_packs_epi32, _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128,
+    _mm_slli_epi16, _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
     _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
     _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
     _mm_unpacklo_epi64, _mm_unpacklo_epi8, _mm_xor_si128,
@@ -767,7 +767,8 @@ fn smooth(a: __m128i, b: __m128i, c: __m128i) -> (__m128i, __m128i) {
 #[inline(never)]
 pub(super) fn sampled_template(
     w: &[i32; 4],
-    source: &[i16],
+    frame: Option<(&[u8], usize)>,
+    source: &mut [i16],
     patch: &mut [i16],
     pitch: usize,
     [intensity, dx, dy]: [&mut [i16]; 3],
@@ -780,16 +781,28 @@ pub(super) fn sampled_template(
         && dx.len() == intensity.len()
         && dy.len() == intensity.len()
         && source.len() >= n * n;
+    let weights = pixel_weight_pairs(w).filter(|_| shaped);
+    // The 9 and 10 px windows inside the frame read its pixels where they lie.
+    if let (Some(weights), Some((block, stride)), 9 | 10) = (weights, frame, win) {
+        let pairs = |r| frame_pairs(block, stride, n, r);
+        if template_rows_12(weights, pairs, n, pitch, [intensity, dx, dy]).is_some() {
+            return;
+        }
+    }
+    if let Some((block, stride)) = frame {
+        widen_rows(block, stride, n, source, n);
+    }
     let pixels = shaped && all_pixels(source.get(..n * n).unwrap_or(&[]));
-    let weights = pixel_weight_pairs(w).filter(|_| pixels);
-    let Some(weights) = weights else {
-        return portable::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
+    let Some(weights) = weights.filter(|_| pixels) else {
+        return portable::sampled_template(w, None, source, patch, pitch, [intensity, dx, dy]);
     };
+    let source = &*source;
     // Patches up to 16 px wide, in two registers a row, when the source has the slack the
     // second register's loads reach into.
     let slack = source.len() >= n * n + LANES;
     if slack && (win == 9 || win == 10) {
-        let done = template_rows_12(weights, source, n, pitch, [intensity, dx, dy]);
+        let pairs = |r| gathered_pairs(source, n, r);
+        let done = template_rows_12(weights, pairs, n, pitch, [intensity, dx, dy]);
         debug_assert!(done.is_some(), "shaped inputs hold every block");
         return;
     }
@@ -812,50 +825,93 @@ pub(super) fn sampled_template(
     }
 }
 
-/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
-/// two window columns: the patch rows' samples from column 8 on need only their first four
-/// (the block's columns and the two to their right), so that block runs on four lanes, its
-/// sums in one register of 32-bit lanes, and stores its two first values (the second, for a
-/// 9 px window, lands in the padding column, which the caller clears).
+/// [`template_rows_12`]'s source row `r` from gathered values (rows `n` apart, with the slack
+/// its four-lane loads reach into): the interleaved pairs (value k, value k + 1) of columns
+/// 0..8 in two registers, of columns 8..12 in one.
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(always)]
-fn template_rows_12(
-    (upper, lower): (__m128i, __m128i),
-    source: &[i16],
-    n: usize,
-    pitch: usize,
-    [intensity, dx, dy]: [&mut [i16]; 3],
-) -> Option<()> {
+fn gathered_pairs(source: &[i16], n: usize, r: usize) -> Option<((__m128i, __m128i), __m128i)> {
     const REACH: usize = LANES + 1 + 4;
-    let win = n.checked_sub(3)?;
-    let load4 = |row: &[i16; REACH], k: usize| -> Option<__m128i> {
+    let start = r.checked_mul(n)?;
+    let row: &[i16; REACH] = source
+        .get(start..start.checked_add(REACH)?)?
+        .try_into()
+        .ok()?;
+    let at = |k: usize| {
+        row.get(k..k + LANES)
+            .and_then(|v| v.try_into().ok())
+            .map(load)
+    };
+    let load4 = |k: usize| -> Option<__m128i> {
         let four: &[i16; 4] = row.get(k..k + 4)?.try_into().ok()?;
         // SAFETY: reads the 8 bytes of `four`, with no alignment needed (module docs).
         Some(unsafe { _mm_loadl_epi64(four.as_ptr().cast()) })
     };
-    // Source row `r`'s interleaved pairs (value k, value k + 1): columns 0..8 in two
-    // registers, 8..12 in one.
-    let pairs = |r: usize| -> Option<((__m128i, __m128i), __m128i)> {
-        let start = r.checked_mul(n)?;
-        let row: &[i16; REACH] = source
-            .get(start..start.checked_add(REACH)?)?
-            .try_into()
-            .ok()?;
-        let at = |k: usize| {
-            row.get(k..k + LANES)
-                .and_then(|v| v.try_into().ok())
-                .map(load)
-        };
-        let (a, b) = (at(0)?, at(1)?);
-        let (c, d) = (load4(row, LANES)?, load4(row, LANES + 1)?);
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        Some(unsafe {
-            (
-                (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
-                _mm_unpacklo_epi16(c, d),
-            )
-        })
+    let (a, b) = (at(0)?, at(1)?);
+    let (c, d) = (load4(LANES)?, load4(LANES + 1)?);
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    Some(unsafe {
+        (
+            (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+            _mm_unpacklo_epi16(c, d),
+        )
+    })
+}
+
+/// [`gathered_pairs`] from the frame's pixels where they lie (rows `stride` apart, each `n` long
+/// to the block's end), widened as they are loaded. The four-lane values from column 9 come
+/// from column 8's shifted when the row ends at column 11 (its last lane, outside the patch's
+/// source, is then zero).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn frame_pairs(
+    block: &[u8],
+    stride: usize,
+    n: usize,
+    r: usize,
+) -> Option<((__m128i, __m128i), __m128i)> {
+    let start = r.checked_mul(stride)?;
+    let row = block.get(start..start.checked_add(n)?)?;
+    let eight = |k: usize| -> Option<__m128i> {
+        let pixels: &[u8; LANES] = row.get(k..k + LANES)?.try_into().ok()?;
+        // SAFETY: reads the 8 bytes of `pixels`, with no alignment needed (module docs); the
+        // rest is register arithmetic on an SSE2 target.
+        Some(unsafe { _mm_unpacklo_epi8(_mm_loadl_epi64(pixels.as_ptr().cast()), zero()) })
     };
+    let four = |k: usize| -> Option<__m128i> {
+        let pixels: [u8; 4] = row.get(k..k + 4)?.try_into().ok()?;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe { _mm_unpacklo_epi8(_mm_cvtsi32_si128(i32::from_le_bytes(pixels)), zero()) })
+    };
+    let (a, b, c) = (eight(0)?, eight(1)?, four(LANES)?);
+    let d = match four(LANES + 1) {
+        Some(d) => d,
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        None => unsafe { _mm_srli_si128::<2>(c) },
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    Some(unsafe {
+        (
+            (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+            _mm_unpacklo_epi16(c, d),
+        )
+    })
+}
+
+/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
+/// two window columns: the patch rows' samples from column 8 on need only their first four
+/// (the block's columns and the two to their right), so that block runs on four lanes, its
+/// sums in one register of 32-bit lanes, and stores its one or two window columns.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_rows_12(
+    (upper, lower): (__m128i, __m128i),
+    pairs: impl Fn(usize) -> Option<((__m128i, __m128i), __m128i)>,
+    n: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    let win = n.checked_sub(3)?;
     // SAFETY: register arithmetic on an SSE2 target (module docs).
     let (round, weights) = unsafe {
         (
@@ -881,13 +937,17 @@ fn template_rows_12(
     };
     // The first two values of a register at `at` in `buf`, if it holds them.
     let put2 = |buf: &mut [i16], at: usize, v: __m128i| {
-        if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
-            // SAFETY: register arithmetic on an SSE2 target (module docs).
-            let bits = unsafe { _mm_cvtsi128_si32(v) };
-            // The register's first two 16-bit lanes, low first.
-            #[allow(clippy::cast_possible_truncation)]
-            let lanes = [bits as i16, (bits >> 16) as i16];
-            *two = lanes;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let bits = unsafe { _mm_cvtsi128_si32(v) };
+        // The register's first two 16-bit lanes, low first: the one or two window columns.
+        #[allow(clippy::cast_possible_truncation)]
+        let lanes = [bits as i16, (bits >> 16) as i16];
+        if win > LANES + 1 {
+            if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
+                *two = lanes;
+            }
+        } else if let Some(one) = buf.get_mut(at) {
+            *one = lanes[0];
         }
     };
     let (mut top, mut top_right) = pairs(0)?;

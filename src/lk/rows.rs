@@ -83,13 +83,18 @@ impl Loops for Rows {
                 }
             }
         } else {
+            // The patch's source pixels where they lie in the frame, or gathered.
             let n = side + 1;
-            gather(frame, origin, n, n, source);
-            // n^2 = (win + 3)^2 = source_len.
-            let px = in_layout(source, 0..n * n + 8);
+            let block = frame.block(origin.x, origin.y, n, n);
+            if block.is_none() {
+                gather(frame, origin, n, n, source);
+            }
+            // n^2 + 8 = (win + 3)^2 + 8 = source_len.
+            let px = in_layout_mut(source, 0..n * n + 8);
             let patch = in_layout_mut(patch, 0..side * side);
             let out = [&mut *intensity, &mut *dx, &mut *dy];
-            runs::sampled_template(&w, px, patch, layout.pitch, out);
+            let frame = block.map(|block| (block, frame.stride()));
+            runs::sampled_template(&w, frame, px, patch, layout.pitch, out);
         }
         clear_template_padding(layout, [&mut *intensity, &mut *dx, &mut *dy]);
         if !origin.fits(frame, layout.win + 2, layout.win + 2) {

@@ -197,15 +197,19 @@ pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4
             }
         }
     }
-    // The block's first and last columns over the rows of each pass.
-    let column = |r: usize, c: usize| block.get(r * p + c).map_or(0, |&v| i32::from(v));
-    let (mut left, mut right) = ([0i32; 2], [0i32; 2]);
-    for r in 0..win {
-        left[0] += column(r, 0);
-        right[0] += column(r, win);
-        left[1] += column(r + 1, 0);
-        right[1] += column(r + 1, win);
+    // The block's first and last columns over all its rows, then without the last row (the
+    // rows of the first pass) and without the first (those of the second).
+    let at = |k: usize| block.get(k).map_or(0, |&v| i32::from(v));
+    let (mut left, mut right) = (0, 0);
+    let mut k = 0;
+    while k < p * p {
+        left += at(k);
+        right += at(k + win);
+        k += p;
     }
+    let (last_row, first_row) = (win * p, 0);
+    let left = [left - at(last_row), left - at(first_row)];
+    let right = [right - at(last_row + win), right - at(first_row + win)];
     sums[0][0] = i64::from(runs[0] - right[0]);
     sums[1][0] = i64::from(runs[0] - left[0]);
     sums[2][0] = i64::from(runs[1] - right[1]);

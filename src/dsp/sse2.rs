@@ -677,7 +677,7 @@ pub(super) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
 /// block overlapping the one before when `cols` is not a multiple of eight. Rows under eight
 /// pixels go to the portable code.
 #[allow(clippy::arithmetic_side_effects)]
-#[inline(never)]
+#[inline(always)]
 pub(super) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16], pitch: usize) {
     if cols < LANES || stride < cols || pitch < cols {
         return portable::widen_rows(block, stride, cols, out, pitch);

@@ -108,28 +108,32 @@ pub(crate) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
     }
 }
 
-/// The template of a window between pixels, from the `(win + 3)` square of pixels `source`
-/// under its patch (rows `win + 3` apart, values `0..=255` on every LK call): the patch, the
-/// `(win + 2)` square of [`bilinear`] samples with weights `w`, in `patch` (rows `win + 2` apart),
-/// its inner `win` square, the template's intensities, in `intensity`, and the [`scharr_row`]
-/// derivatives of that square in `dx` and `dy` (window buffers: `win` rows of `win` values,
-/// `pitch` apart). The values between rows (each row's padding) are scratch as well: the
-/// caller clears them. So is the patch: the SSE2 code keeps it in registers.
+/// The template of a window between pixels, from the `(win + 3)` square of pixels under its
+/// patch: in the frame where they lie, `frame = Some((block, stride))` (rows `stride` apart,
+/// as `ImageView::block` gives them), or gathered into `source` (rows `win + 3` apart, values
+/// `0..=255` on every LK call); with a frame block, `source` is scratch of `(win + 3)^2`
+/// values or more. Returns the patch, the `(win + 2)` square of [`bilinear`] samples with
+/// weights `w`, in `patch` (rows `win + 2` apart), its inner `win` square, the template's
+/// intensities, in `intensity`, and the [`scharr_row`] derivatives of that square in `dx`
+/// and `dy` (window buffers: `win` rows of `win` values, `pitch` apart). The values between
+/// rows (each row's padding) are scratch as well: the caller clears them. So is the patch:
+/// the SSE2 code keeps it in registers.
 #[inline(always)]
 pub(crate) fn sampled_template(
     w: &[i32; 4],
-    source: &[i16],
+    frame: Option<(&[u8], usize)>,
+    source: &mut [i16],
     patch: &mut [i16],
     pitch: usize,
     [intensity, dx, dy]: [&mut [i16]; 3],
 ) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     {
-        super::sse2::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
+        super::sse2::sampled_template(w, frame, source, patch, pitch, [intensity, dx, dy]);
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     {
-        portable::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
+        portable::sampled_template(w, frame, source, patch, pitch, [intensity, dx, dy]);
     }
 }
 
@@ -550,7 +554,8 @@ pub(crate) mod portable {
     #[inline(never)]
     pub(crate) fn sampled_template(
         w: &[i32; 4],
-        source: &[i16],
+        frame: Option<(&[u8], usize)>,
+        source: &mut [i16],
         patch: &mut [i16],
         pitch: usize,
         [intensity, dx, dy]: [&mut [i16]; 3],
@@ -558,6 +563,10 @@ pub(crate) mod portable {
         let pitch = pitch.max(1);
         let win = intensity.len() / pitch;
         let (side, n) = (win + 2, win + 3);
+        // The pixels, copied from the frame when they lie there.
+        if let Some((block, stride)) = frame {
+            widen_rows(block, stride, n, source, n);
+        }
         let source = source.get(..n * n).unwrap_or(source);
         let sources = source.chunks(n).zip(source.chunks(n).skip(1));
         let mut inner = intensity
@@ -719,7 +728,7 @@ mod tests {
             let (x, y) = (&a[..la], &a[..lb]);
             assert_eq!(template_sums(y, x, x), portable::template_sums(y, x, x));
         }
-        for len in [90, 110, 462, 1056, 3969] {
+        for len in [56, 90, 110, 462, 1056, 3969] {
             let mut buffers = [[0i16; 3969]; 3];
             for (b, extreme) in buffers.iter_mut().zip([8160, 4080, -4080]) {
                 for (k, value) in b.iter_mut().take(len).enumerate() {
@@ -822,36 +831,44 @@ mod tests {
                         _ => v.next(),
                     };
                 }
+                // The same pixels in a frame, rows 40 apart, its block ending at the block's
+                // last pixel.
+                let mut frame = [0u8; 40 * (MAX + 3)];
+                for r in 0..n {
+                    for c in 0..n {
+                        frame[r * 40 + c] = source[r * n + c] as u8;
+                    }
+                }
+                let block = &frame[..(n - 1) * 40 + n];
+                let from_frame = round % 4 < 3;
                 for (pitch, len) in [(win, n * n), (win + 1, n * n + 8), (win + 3, LEN)] {
                     let out = || [[-1i16; MAX * (MAX + 3)]; 3];
-                    let (mut fast, mut reference) = (out(), out());
+                    let (mut fast, mut reference, mut framed) = (out(), out(), out());
                     let mut patch = [0i16; (MAX + 2) * (MAX + 2)];
                     let patch = &mut patch[..(win + 2) * (win + 2)];
                     let m = win * pitch;
+                    let (mut gathered, mut scratch) = (source, [0i16; LEN]);
                     let [i, x, y] = &mut fast;
-                    sampled_template(
-                        &w,
-                        &source[..len],
-                        patch,
-                        pitch,
-                        [&mut i[..m], &mut x[..m], &mut y[..m]],
-                    );
+                    let out = [&mut i[..m], &mut x[..m], &mut y[..m]];
+                    sampled_template(&w, None, &mut gathered[..len], patch, pitch, out);
                     let [i, x, y] = &mut reference;
-                    portable::sampled_template(
-                        &w,
-                        &source[..len],
-                        patch,
-                        pitch,
-                        [&mut i[..m], &mut x[..m], &mut y[..m]],
-                    );
-                    for (f, r) in fast.iter().zip(&reference) {
+                    let out = [&mut i[..m], &mut x[..m], &mut y[..m]];
+                    portable::sampled_template(&w, None, &mut source[..len], patch, pitch, out);
+                    if from_frame {
+                        let [i, x, y] = &mut framed;
+                        let out = [&mut i[..m], &mut x[..m], &mut y[..m]];
+                        let frame = Some((block, 40));
+                        sampled_template(&w, frame, &mut scratch[..len], patch, pitch, out);
+                    }
+                    for (k, (f, r)) in fast.iter().zip(&reference).enumerate() {
                         for row in 0..win {
                             let at = row * pitch..row * pitch + win;
-                            assert_eq!(
-                                f[at.clone()],
-                                r[at],
-                                "{w:?} win {win} pitch {pitch} row {row}"
-                            );
+                            let (f, r) = (&f[at.clone()], &r[at.clone()]);
+                            assert_eq!(f, r, "{w:?} win {win} pitch {pitch} row {row}");
+                            if from_frame {
+                                let framed = &framed[k][at];
+                                assert_eq!(framed, r, "{w:?} win {win} pitch {pitch} row {row}");
+                            }
                         }
                     }
                 }

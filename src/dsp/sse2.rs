@@ -31,10 +31,10 @@
 use super::runs::{portable, CORRELATION_CHUNK, SAMPLE_BITS, TEMPLATE_CHUNK, WEIGHT_BITS};
 use core::arch::x86_64::{
     __m128i, _mm_add_epi16, _mm_add_epi32, _mm_add_epi64, _mm_and_si128, _mm_andnot_si128,
-    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_loadl_epi64,
-    _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128, _mm_packs_epi32,
-    _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128, _mm_slli_epi16,
-    _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
+    _mm_cmpeq_epi16, _mm_cmpgt_epi16, _mm_cmpgt_epi32, _mm_cvtsi128_si32, _mm_cvtsi32_si128,
+    _mm_loadl_epi64, _mm_loadu_si128, _mm_madd_epi16, _mm_movemask_epi8, _mm_or_si128,
+    _mm_packs_epi32, _mm_packus_epi16, _mm_set1_epi16, _mm_set1_epi32, _mm_setzero_si128,
+    _mm_slli_epi16, _mm_slli_epi32, _mm_slli_si128, _mm_srai_epi32, _mm_srli_epi16, _mm_srli_si128,
     _mm_storel_epi64, _mm_storeu_si128, _mm_sub_epi16, _mm_sub_epi32, _mm_unpackhi_epi16,
     _mm_unpackhi_epi32, _mm_unpackhi_epi64, _mm_unpacklo_epi16, _mm_unpacklo_epi32,
     _mm_unpacklo_epi64, _mm_unpacklo_epi8, _mm_xor_si128,
@@ -174,10 +174,16 @@ pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4
         let part = t.map(|v| v.get(start..start + len).unwrap_or(&[]));
         for (pass, base) in [0, p].into_iter().enumerate() {
             let from = base + start;
-            let Some(([first, second], sum)) = block
-                .get(from..from + len + 1)
-                .and_then(|run| correlate_pass(run, part))
-            else {
+            let run = block.get(from..from + len + 1);
+            // The runs of the flight presets' windows and of the 21 px default, of known
+            // lengths: their loops without bounds checks.
+            let products = match len {
+                56 => run.and_then(|run| correlate_pass_of::<56>(run, part)),
+                90 => run.and_then(|run| correlate_pass_of::<90>(run, part)),
+                462 => run.and_then(|run| correlate_pass_of::<462>(run, part)),
+                _ => run.and_then(|run| correlate_pass(run, part)),
+            };
+            let Some(([first, second], sum)) = products else {
                 return portable::correlate(block, p, t);
             };
             let pair = sums.iter_mut().skip(2 * pass).zip([first, second]);
@@ -191,20 +197,72 @@ pub(super) fn correlate(block: &[i16], pitch: usize, t: [&[i16]; 3]) -> [[i64; 4
             }
         }
     }
-    // The block's first and last columns over the rows of each pass.
-    let column = |r: usize, c: usize| block.get(r * p + c).map_or(0, |&v| i32::from(v));
-    let (mut left, mut right) = ([0i32; 2], [0i32; 2]);
-    for r in 0..win {
-        left[0] += column(r, 0);
-        right[0] += column(r, win);
-        left[1] += column(r + 1, 0);
-        right[1] += column(r + 1, win);
+    // The block's first and last columns over all its rows, then without the last row (the
+    // rows of the first pass) and without the first (those of the second).
+    let at = |k: usize| block.get(k).map_or(0, |&v| i32::from(v));
+    let (mut left, mut right) = (0, 0);
+    let mut k = 0;
+    while k < p * p {
+        left += at(k);
+        right += at(k + win);
+        k += p;
     }
+    let (last_row, first_row) = (win * p, 0);
+    let left = [left - at(last_row), left - at(first_row)];
+    let right = [right - at(last_row + win), right - at(first_row + win)];
     sums[0][0] = i64::from(runs[0] - right[0]);
     sums[1][0] = i64::from(runs[0] - left[0]);
     sums[2][0] = i64::from(runs[1] - right[1]);
     sums[3][0] = i64::from(runs[1] - left[1]);
     sums
+}
+
+/// [`correlate_pass`] for runs of `LEN` values.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn correlate_pass_of<const LEN: usize>(
+    run: &[i16],
+    t: [&[i16]; 3],
+) -> Option<([[i32; 3]; 2], i32)> {
+    let first: &[i16; LEN] = run.get(..LEN)?.try_into().ok()?;
+    let second: &[i16; LEN] = run.get(1..LEN + 1)?.try_into().ok()?;
+    let [t0, t1, t2]: [&[i16; LEN]; 3] = [
+        t[0].try_into().ok()?,
+        t[1].try_into().ok()?,
+        t[2].try_into().ok()?,
+    ];
+    if LEN < LANES {
+        return None;
+    }
+    let at = |v: &[i16; LEN], k: usize| -> __m128i {
+        let block: &[i16; LANES] = v[k..k + LANES].try_into().unwrap_or(&[0; LANES]);
+        load(block)
+    };
+    let ones = pairs_of(1, 1);
+    let mut acc = [[zero(); 3]; 2];
+    let mut total = zero();
+    let mut add_block = |k: usize, mask: Option<__m128i>| {
+        let (x0, x1) = (at(first, k), at(second, k));
+        let [y0, y1, y2] = [at(t0, k), at(t1, k), at(t2, k)].map(|y| mask.map_or(y, |m| and(y, m)));
+        for (acc, x) in acc.iter_mut().zip([x0, x1]) {
+            *acc = [
+                add(acc[0], madd(x, y0)),
+                add(acc[1], madd(x, y1)),
+                add(acc[2], madd(x, y2)),
+            ];
+        }
+        total = add(total, madd(mask.map_or(x0, |m| and(x0, m)), ones));
+    };
+    for b in 0..LEN / LANES {
+        add_block(b * LANES, None);
+    }
+    if LEN % LANES != 0 {
+        add_block(LEN - LANES, load_at(&MASKS, LEN % LANES));
+    }
+    let [[a0, a1, a2], [b0, b1, b2]] = acc;
+    let [d0, d1, d2, d3] = lane_sums4([a0, a1, a2, b0]);
+    let [d4, d5, sum, _] = lane_sums4([b1, b2, total, zero()]);
+    Some(([[d0, d1, d2], [d3, d4, d5]], sum))
 }
 
 /// The dot products of the runs `run[..len]` and `run[1..len + 1]` with the three template
@@ -410,61 +468,105 @@ pub(super) fn template_sums(intensity: &[i16], dx: &[i16], dy: &[i16]) -> [i64; 
     if n < LANES || dx.len() != n || dy.len() != n {
         return portable::template_sums(intensity, dx, dy);
     }
-    let ones = pairs_of(1, 1);
+    // The buffers of the flight presets' windows and of the 21 px default, of known lengths:
+    // their loops without bounds checks.
+    let sums = match n {
+        56 => template_sums_of::<56>(intensity, dx, dy),
+        90 => template_sums_of::<90>(intensity, dx, dy),
+        462 => template_sums_of::<462>(intensity, dx, dy),
+        _ => None,
+    };
+    if let Some(sums) = sums {
+        return sums;
+    }
     let mut s = [0i64; 9];
     let chunks = intensity
         .chunks(TEMPLATE_CHUNK)
         .zip(dx.chunks(TEMPLATE_CHUNK).zip(dy.chunks(TEMPLATE_CHUNK)));
     for (i, (gx, gy)) in chunks {
-        if i.len() < LANES {
-            let part = portable::template_sums(i, gx, gy);
-            for (total, v) in s.iter_mut().zip(part) {
-                *total = total.wrapping_add(v);
-            }
-            continue;
-        }
-        let mut acc = [zero(); 9];
-        let mut add9 = |v, x, y| {
-            let terms = [
-                madd(x, x),
-                madd(x, y),
-                madd(y, y),
-                madd(x, ones),
-                madd(y, ones),
-                madd(v, ones),
-                madd(v, v),
-                madd(v, x),
-                madd(v, y),
-            ];
-            for (acc, term) in acc.iter_mut().zip(terms) {
-                *acc = add(*acc, term);
-            }
+        let part = if i.len() < LANES {
+            portable::template_sums(i, gx, gy)
+        } else {
+            chunk_sums(i, gx, gy)
         };
-        for (v, (x, y)) in whole(i).zip(whole(gx).zip(whole(gy))) {
-            add9(v, x, y);
-        }
-        if let (Some(v), Some(x), Some(y)) = (last_masked(i), last_masked(gx), last_masked(gy)) {
-            add9(v, x, y);
-        }
-        let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
-        let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
-        let widened = [
-            i64::from(first[0]),
-            i64::from(first[1]),
-            i64::from(first[2]),
-            i64::from(first[3]),
-            i64::from(second[0]),
-            i64::from(second[1]),
-            // `Σ i²` of a chunk, read unsigned.
-            i64::from(second[2] as u32),
-            i64::from(second[3]),
-            i64::from(lanes_sum(a8, 0)),
-        ];
-        for (total, v) in s.iter_mut().zip(widened) {
+        for (total, v) in s.iter_mut().zip(part) {
             *total = total.wrapping_add(v);
         }
     }
     s
+}
+
+/// [`template_sums`] of buffers of `N` values (chunks of at least 8), in chunks of constant
+/// lengths.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_sums_of<const N: usize>(i: &[i16], x: &[i16], y: &[i16]) -> Option<[i64; 9]> {
+    let (i, x, y): (&[i16; N], &[i16; N], &[i16; N]) =
+        (i.try_into().ok()?, x.try_into().ok()?, y.try_into().ok()?);
+    let mut s = [0i64; 9];
+    let mut start = 0;
+    while start < N {
+        let end = (start + TEMPLATE_CHUNK).min(N);
+        let part = chunk_sums(&i[start..end], &x[start..end], &y[start..end]);
+        for (total, v) in s.iter_mut().zip(part) {
+            *total = total.wrapping_add(v);
+        }
+        start = end;
+    }
+    Some(s)
+}
+
+/// The sums of [`template_sums`] over one chunk of at least 8 values: the nine products of
+/// each block of eight values in one pass (the last, when the chunk is not a multiple of eight
+/// long, overlapping the one before, masked), and the lanes added at the end.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn chunk_sums(i: &[i16], gx: &[i16], gy: &[i16]) -> [i64; 9] {
+    let ones = pairs_of(1, 1);
+    let mut acc = [zero(); 9];
+    let mut add9 = |v, x, y| {
+        let terms = [
+            madd(x, x),
+            madd(x, y),
+            madd(y, y),
+            madd(x, ones),
+            madd(y, ones),
+            madd(v, ones),
+            madd(v, v),
+            madd(v, x),
+            madd(v, y),
+        ];
+        for (acc, term) in acc.iter_mut().zip(terms) {
+            *acc = add(*acc, term);
+        }
+    };
+    let len = i.len().min(gx.len()).min(gy.len());
+    let at = |v: &[i16], k: usize| load_at(v, k).unwrap_or(zero());
+    let mut k = 0;
+    while k + LANES <= len {
+        add9(at(i, k), at(gx, k), at(gy, k));
+        k += LANES;
+    }
+    if k < len && len >= LANES {
+        let start = len - LANES;
+        let mask = load_at(&MASKS, len % LANES).unwrap_or(zero());
+        let masked = |v: &[i16]| and(at(v, start), mask);
+        add9(masked(i), masked(gx), masked(gy));
+    }
+    let [a0, a1, a2, a3, a4, a5, a6, a7, a8] = acc;
+    let (first, second) = (lane_sums4([a0, a1, a2, a3]), lane_sums4([a4, a5, a6, a7]));
+    [
+        i64::from(first[0]),
+        i64::from(first[1]),
+        i64::from(first[2]),
+        i64::from(first[3]),
+        i64::from(second[0]),
+        i64::from(second[1]),
+        // `Σ i²` of a chunk, read unsigned.
+        i64::from(second[2] as u32),
+        i64::from(second[3]),
+        i64::from(lanes_sum(a8, 0)),
+    ]
 }
 
 /// The sums of the four lanes of each of four registers, wrapping: a transpose by unpacks,
@@ -575,7 +677,7 @@ pub(super) fn bilinear_row(w: &[i32; 4], top: &[i16], bottom: &[i16], out: &mut 
 /// block overlapping the one before when `cols` is not a multiple of eight. Rows under eight
 /// pixels go to the portable code.
 #[allow(clippy::arithmetic_side_effects)]
-#[inline(never)]
+#[inline(always)]
 pub(super) fn widen_rows(block: &[u8], stride: usize, cols: usize, out: &mut [i16], pitch: usize) {
     if cols < LANES || stride < cols || pitch < cols {
         return portable::widen_rows(block, stride, cols, out, pitch);
@@ -669,7 +771,8 @@ fn smooth(a: __m128i, b: __m128i, c: __m128i) -> (__m128i, __m128i) {
 #[inline(never)]
 pub(super) fn sampled_template(
     w: &[i32; 4],
-    source: &[i16],
+    frame: Option<(&[u8], usize)>,
+    source: &mut [i16],
     patch: &mut [i16],
     pitch: usize,
     [intensity, dx, dy]: [&mut [i16]; 3],
@@ -682,16 +785,28 @@ pub(super) fn sampled_template(
         && dx.len() == intensity.len()
         && dy.len() == intensity.len()
         && source.len() >= n * n;
+    let weights = pixel_weight_pairs(w).filter(|_| shaped);
+    // The 9 and 10 px windows inside the frame read its pixels where they lie.
+    if let (Some(weights), Some((block, stride)), 9 | 10) = (weights, frame, win) {
+        let pairs = |r| frame_pairs(block, stride, n, r);
+        if template_rows_12(weights, pairs, n, pitch, [intensity, dx, dy]).is_some() {
+            return;
+        }
+    }
+    if let Some((block, stride)) = frame {
+        widen_rows(block, stride, n, source, n);
+    }
     let pixels = shaped && all_pixels(source.get(..n * n).unwrap_or(&[]));
-    let weights = pixel_weight_pairs(w).filter(|_| pixels);
-    let Some(weights) = weights else {
-        return portable::sampled_template(w, source, patch, pitch, [intensity, dx, dy]);
+    let Some(weights) = weights.filter(|_| pixels) else {
+        return portable::sampled_template(w, None, source, patch, pitch, [intensity, dx, dy]);
     };
+    let source = &*source;
     // Patches up to 16 px wide, in two registers a row, when the source has the slack the
     // second register's loads reach into.
     let slack = source.len() >= n * n + LANES;
     if slack && (win == 9 || win == 10) {
-        let done = template_rows_12(weights, source, n, pitch, [intensity, dx, dy]);
+        let pairs = |r| gathered_pairs(source, n, r);
+        let done = template_rows_12(weights, pairs, n, pitch, [intensity, dx, dy]);
         debug_assert!(done.is_some(), "shaped inputs hold every block");
         return;
     }
@@ -714,50 +829,93 @@ pub(super) fn sampled_template(
     }
 }
 
-/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
-/// two window columns: the patch rows' samples from column 8 on need only their first four
-/// (the block's columns and the two to their right), so that block runs on four lanes, its
-/// sums in one register of 32-bit lanes, and stores its two first values (the second, for a
-/// 9 px window, lands in the padding column, which the caller clears).
+/// [`template_rows_12`]'s source row `r` from gathered values (rows `n` apart, with the slack
+/// its four-lane loads reach into): the interleaved pairs (value k, value k + 1) of columns
+/// 0..8 in two registers, of columns 8..12 in one.
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(always)]
-fn template_rows_12(
-    (upper, lower): (__m128i, __m128i),
-    source: &[i16],
-    n: usize,
-    pitch: usize,
-    [intensity, dx, dy]: [&mut [i16]; 3],
-) -> Option<()> {
+fn gathered_pairs(source: &[i16], n: usize, r: usize) -> Option<((__m128i, __m128i), __m128i)> {
     const REACH: usize = LANES + 1 + 4;
-    let win = n.checked_sub(3)?;
-    let load4 = |row: &[i16; REACH], k: usize| -> Option<__m128i> {
+    let start = r.checked_mul(n)?;
+    let row: &[i16; REACH] = source
+        .get(start..start.checked_add(REACH)?)?
+        .try_into()
+        .ok()?;
+    let at = |k: usize| {
+        row.get(k..k + LANES)
+            .and_then(|v| v.try_into().ok())
+            .map(load)
+    };
+    let load4 = |k: usize| -> Option<__m128i> {
         let four: &[i16; 4] = row.get(k..k + 4)?.try_into().ok()?;
         // SAFETY: reads the 8 bytes of `four`, with no alignment needed (module docs).
         Some(unsafe { _mm_loadl_epi64(four.as_ptr().cast()) })
     };
-    // Source row `r`'s interleaved pairs (value k, value k + 1): columns 0..8 in two
-    // registers, 8..12 in one.
-    let pairs = |r: usize| -> Option<((__m128i, __m128i), __m128i)> {
-        let start = r.checked_mul(n)?;
-        let row: &[i16; REACH] = source
-            .get(start..start.checked_add(REACH)?)?
-            .try_into()
-            .ok()?;
-        let at = |k: usize| {
-            row.get(k..k + LANES)
-                .and_then(|v| v.try_into().ok())
-                .map(load)
-        };
-        let (a, b) = (at(0)?, at(1)?);
-        let (c, d) = (load4(row, LANES)?, load4(row, LANES + 1)?);
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        Some(unsafe {
-            (
-                (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
-                _mm_unpacklo_epi16(c, d),
-            )
-        })
+    let (a, b) = (at(0)?, at(1)?);
+    let (c, d) = (load4(LANES)?, load4(LANES + 1)?);
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    Some(unsafe {
+        (
+            (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+            _mm_unpacklo_epi16(c, d),
+        )
+    })
+}
+
+/// [`gathered_pairs`] from the frame's pixels where they lie (rows `stride` apart, each `n` long
+/// to the block's end), widened as they are loaded. The four-lane values from column 9 come
+/// from column 8's shifted when the row ends at column 11 (its last lane, outside the patch's
+/// source, is then zero).
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn frame_pairs(
+    block: &[u8],
+    stride: usize,
+    n: usize,
+    r: usize,
+) -> Option<((__m128i, __m128i), __m128i)> {
+    let start = r.checked_mul(stride)?;
+    let row = block.get(start..start.checked_add(n)?)?;
+    let eight = |k: usize| -> Option<__m128i> {
+        let pixels: &[u8; LANES] = row.get(k..k + LANES)?.try_into().ok()?;
+        // SAFETY: reads the 8 bytes of `pixels`, with no alignment needed (module docs); the
+        // rest is register arithmetic on an SSE2 target.
+        Some(unsafe { _mm_unpacklo_epi8(_mm_loadl_epi64(pixels.as_ptr().cast()), zero()) })
     };
+    let four = |k: usize| -> Option<__m128i> {
+        let pixels: [u8; 4] = row.get(k..k + 4)?.try_into().ok()?;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        Some(unsafe { _mm_unpacklo_epi8(_mm_cvtsi32_si128(i32::from_le_bytes(pixels)), zero()) })
+    };
+    let (a, b, c) = (eight(0)?, eight(1)?, four(LANES)?);
+    let d = match four(LANES + 1) {
+        Some(d) => d,
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        None => unsafe { _mm_srli_si128::<2>(c) },
+    };
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    Some(unsafe {
+        (
+            (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)),
+            _mm_unpacklo_epi16(c, d),
+        )
+    })
+}
+
+/// [`template_rows_16`] for windows of 9 and 10 px, whose second column block holds one or
+/// two window columns: the patch rows' samples from column 8 on need only their first four
+/// (the block's columns and the two to their right), so that block runs on four lanes, its
+/// sums in one register of 32-bit lanes, and stores its one or two window columns.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
+fn template_rows_12(
+    (upper, lower): (__m128i, __m128i),
+    pairs: impl Fn(usize) -> Option<((__m128i, __m128i), __m128i)>,
+    n: usize,
+    pitch: usize,
+    [intensity, dx, dy]: [&mut [i16]; 3],
+) -> Option<()> {
+    let win = n.checked_sub(3)?;
     // SAFETY: register arithmetic on an SSE2 target (module docs).
     let (round, weights) = unsafe {
         (
@@ -783,13 +941,17 @@ fn template_rows_12(
     };
     // The first two values of a register at `at` in `buf`, if it holds them.
     let put2 = |buf: &mut [i16], at: usize, v: __m128i| {
-        if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
-            // SAFETY: register arithmetic on an SSE2 target (module docs).
-            let bits = unsafe { _mm_cvtsi128_si32(v) };
-            // The register's first two 16-bit lanes, low first.
-            #[allow(clippy::cast_possible_truncation)]
-            let lanes = [bits as i16, (bits >> 16) as i16];
-            *two = lanes;
+        // SAFETY: register arithmetic on an SSE2 target (module docs).
+        let bits = unsafe { _mm_cvtsi128_si32(v) };
+        // The register's first two 16-bit lanes, low first: the one or two window columns.
+        #[allow(clippy::cast_possible_truncation)]
+        let lanes = [bits as i16, (bits >> 16) as i16];
+        if win > LANES + 1 {
+            if let Some(Ok(two)) = buf.get_mut(at..at + 2).map(<&mut [i16; 2]>::try_from) {
+                *two = lanes;
+            }
+        } else if let Some(one) = buf.get_mut(at) {
+            *one = lanes[0];
         }
     };
     let (mut top, mut top_right) = pairs(0)?;
@@ -1133,10 +1295,27 @@ pub(super) fn binomial_row(rows: &[&[u8]; 5], out: &mut [u8]) {
 #[inline(always)]
 fn binomial_blocks(rows: &[&[u8]; 5], out: &mut [u8]) -> Option<()> {
     let last = out.len().checked_sub(LANES)?;
+    let reach = rows.iter().map(|r| r.len()).min()?;
+    // The vertical sums of the block's 16 columns, when the block before computed them.
+    let mut ahead: Option<(__m128i, __m128i)> = None;
     let mut j = 0;
     loop {
         let block = j.min(last);
-        let pixels = binomial8(rows, block.checked_mul(2)?.checked_add(2)?)?;
+        let start = block.checked_mul(2)?.checked_add(2)?;
+        let pixels = match start.checked_add(32) {
+            // A whole block whose next 16 columns are in the rows: this block's sums and
+            // those, which the next block starts from.
+            Some(end) if block == j && end <= reach => {
+                let here = match ahead {
+                    Some(sums) => sums,
+                    None => vertical_sums16(rows, start)?,
+                };
+                let next = vertical_sums16(rows, start.checked_add(16)?)?;
+                ahead = Some(next);
+                binomial8_from(here, next)
+            }
+            _ => binomial8(rows, start)?,
+        };
         let target: &mut [u8; 8] = out
             .get_mut(block..block.checked_add(LANES)?)?
             .try_into()
@@ -1147,5 +1326,26 @@ fn binomial_blocks(rows: &[&[u8]; 5], out: &mut [u8]) -> Option<()> {
             return Some(());
         }
         j = j.saturating_add(LANES);
+    }
+}
+
+/// [`binomial8`] from the vertical sums of its 16 columns, `(E[m], O[m])`, and of the 16 after
+/// them, `(E[m + 8], O[m + 8])`: `E[m + 1]`, `O[m + 1]` and `E[m + 2]` by lane shifts across
+/// the two, instead of a second pass over the rows.
+#[inline(always)]
+fn binomial8_from((even, odd): (__m128i, __m128i), (even8, odd8): (__m128i, __m128i)) -> __m128i {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let even1 = _mm_or_si128(_mm_srli_si128::<2>(even), _mm_slli_si128::<14>(even8));
+        let odd1 = _mm_or_si128(_mm_srli_si128::<2>(odd), _mm_slli_si128::<14>(odd8));
+        let even2 = _mm_or_si128(_mm_srli_si128::<4>(even), _mm_slli_si128::<12>(even8));
+        // The same sum as `binomial8`'s.
+        let fours = _mm_add_epi16(_mm_add_epi16(odd, odd1), even1);
+        let sum = _mm_add_epi16(
+            _mm_add_epi16(even, even2),
+            _mm_add_epi16(_mm_slli_epi16::<2>(fours), _mm_slli_epi16::<1>(even1)),
+        );
+        let rounded = _mm_srli_epi16::<8>(_mm_add_epi16(sum, _mm_set1_epi16(128)));
+        _mm_packus_epi16(rounded, rounded)
     }
 }

@@ -579,7 +579,7 @@ impl LucasKanade {
             return (outcome, 0);
         }
         let origin = WindowOrigin::new(window.0, window.1, self.params.window / 2);
-        let c = *j.correlations(&template, next, &origin);
+        let c = *j.correlations(&template, next, origin);
         (
             outcome,
             template.residual(next, &origin, &c, (j.source, j.values)),
@@ -601,7 +601,7 @@ impl LucasKanade {
             if origin.misses(next, win) {
                 return LevelOutcome::LeftFrame;
             }
-            let step = template.step(j.correlations(template, next, &origin), origin.w);
+            let step = template.step(j.correlations(template, next, origin), origin.w);
             estimate.0 = estimate.0.saturating_add(step.dx);
             estimate.1 = estimate.1.saturating_add(step.dy);
             let (sx, sy) = (i64::from(step.dx), i64::from(step.dy));
@@ -673,16 +673,20 @@ struct NextWindow<'s> {
 impl NextWindow<'_> {
     /// The correlations of the window at `origin` with the template: those of the last visit
     /// when the integer position is the same (they do not depend on the sub-pixel offset).
+    ///
+    /// The origin comes by value: on the usual path, a visit to the same position, it then
+    /// stays in registers (read back from memory, its weights' four 2-byte stores would stall
+    /// an x86-64 load of all four).
     fn correlations<L: Loops>(
         &mut self,
         template: &Template<'_, L>,
         frame: &ImageView<'_>,
-        origin: &WindowOrigin,
+        origin: WindowOrigin,
     ) -> &Correlations {
         let position = (origin.x, origin.y);
         if self.at != Some(position) {
             let (layout, t) = (template.layout(), template.buffers());
-            self.correlations = L::correlate(frame, origin, layout, self.source, t);
+            self.correlations = L::correlate(frame, &origin, layout, self.source, t);
             self.at = Some(position);
         }
         &self.correlations

@@ -83,17 +83,20 @@ impl Loops for Rows {
                 }
             }
         } else {
+            // The patch's source pixels where they lie in the frame, or gathered.
             let n = side + 1;
-            gather(frame, origin, n, n, source);
-            // n^2 = (win + 3)^2 = source_len.
-            let px = in_layout(source, 0..n * n + 8);
+            let block = frame.block(origin.x, origin.y, n, n);
+            if block.is_none() {
+                gather(frame, origin, n, n, source);
+            }
+            // n^2 + 8 = (win + 3)^2 + 8 = source_len.
+            let px = in_layout_mut(source, 0..n * n + 8);
             let patch = in_layout_mut(patch, 0..side * side);
             let out = [&mut *intensity, &mut *dx, &mut *dy];
-            runs::sampled_template(&w, px, patch, layout.pitch, out);
+            let frame = block.map(|block| (block, frame.stride()));
+            runs::sampled_template(&w, frame, px, patch, layout.pitch, out);
         }
-        for buf in [&mut *intensity, &mut *dx, &mut *dy] {
-            clear_padding(layout, buf);
-        }
+        clear_template_padding(layout, [&mut *intensity, &mut *dx, &mut *dy]);
         if !origin.fits(frame, layout.win + 2, layout.win + 2) {
             mask_outside(frame, origin, layout, dx, dy);
         }
@@ -167,6 +170,15 @@ fn next_block<'s>(
     }
     // (win + 1)^2 + 1 <= source_len = (win + 3)^2.
     in_layout(source, 0..n * n + 1)
+}
+
+/// Zeroes the padding column of the template's three window buffers, in one pass.
+fn clear_template_padding(layout: &Layout, [i, x, y]: [&mut [i16]; 3]) {
+    let mut k = layout.win;
+    while let (Some(i), Some(x), Some(y)) = (i.get_mut(k), x.get_mut(k), y.get_mut(k)) {
+        (*i, *x, *y) = (0, 0, 0);
+        k += layout.pitch;
+    }
 }
 
 /// Zeroes the padding column of a window buffer (by steps of a row, not `chunks`, whose

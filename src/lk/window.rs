@@ -178,10 +178,15 @@ impl WindowOrigin {
         let w01 = (fx * (one - fy) + round) >> WEIGHT_BITS;
         let w10 = ((one - fx) * fy + round) >> WEIGHT_BITS;
         let w11 = one - w00 - w01 - w10;
+        // The four weights as one 64-bit value, stored at once: read back as one load (on
+        // x86-64), four 16-bit stores would stall it.
+        let lane = |w: i32, k: u32| u64::from(w as u16) << (16 * k);
+        let packed = (lane(w00, 0) | lane(w01, 1) | lane(w10, 2) | lane(w11, 3)).to_le_bytes();
+        let half = |k: usize| i16::from_le_bytes([packed[2 * k], packed[2 * k + 1]]);
         Self {
             x: (cx >> 16) as isize - reach as isize,
             y: (cy >> 16) as isize - reach as isize,
-            w: [w00 as i16, w01 as i16, w10 as i16, w11 as i16],
+            w: [half(0), half(1), half(2), half(3)],
         }
     }
 
@@ -304,14 +309,19 @@ pub(crate) fn mask_outside(
     };
     let (first_col, end_col) = inside(origin.x + 1, reach_x, frame.width(), layout.pitch);
     let (first_row, end_row) = inside(origin.y + 1, reach_y, frame.height(), layout.win);
-    for buf in [dx, dy] {
-        for (r, row) in buf.chunks_exact_mut(layout.pitch).enumerate() {
-            let (left, right) = match r {
-                _ if r < first_row || r >= end_row => (row.len(), row.len()),
-                _ if first_col == 0 && end_col >= row.len() => continue,
-                _ => (first_col, end_col),
+    // Row by row (not by `chunks`, whose count is a division).
+    let p = layout.pitch;
+    for r in 0..layout.win {
+        let (left, right) = match r {
+            _ if r < first_row || r >= end_row => (p, p),
+            _ if first_col == 0 && end_col >= p => continue,
+            _ => (first_col, end_col),
+        };
+        for buf in [&mut *dx, &mut *dy] {
+            let Some(row) = buf.get_mut(r * p..(r + 1) * p) else {
+                continue;
             };
-            let (outside_left, rest) = row.split_at_mut(left.min(row.len()));
+            let (outside_left, rest) = row.split_at_mut(left.min(p));
             outside_left.fill(0);
             rest.iter_mut().skip(right - left).for_each(|v| *v = 0);
         }

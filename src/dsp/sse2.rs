@@ -341,18 +341,16 @@ pub(super) fn abs_residual(
         i16::try_from(gain >> 15),
         i16::try_from(p),
     );
-    let (Some((upper, lower)), true, (Ok(gain_low), Ok(gain_high), Ok(p16))) =
-        (weights, shaped, small)
+    let (Some(weights), true, (Ok(gain_low), Ok(gain_high), Ok(p16))) = (weights, shaped, small)
     else {
         return portable::abs_residual(w, block, pitch, intensity, (gain, bias));
     };
     // SAFETY: register arithmetic on an SSE2 target (module docs).
-    let (low15, high, bias_lanes, round) = unsafe {
+    let (low15, high, bias_lanes) = unsafe {
         (
             pairs_of(gain_low, 0),
             pairs_of(gain_high, 0),
             _mm_set1_epi32(bias),
-            _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1)),
         )
     };
     // The distances of the eight samples of the run from `k`, those in `drop` lanes zeroed,
@@ -365,9 +363,8 @@ pub(super) fn abs_residual(
         // SAFETY: register arithmetic on an SSE2 target (module docs).
         unsafe {
             let four = |top, bottom, i, drop| {
-                let sum = add(add(madd(top, upper), madd(bottom, lower)), round);
-                // (sum >> 9) as i16, shifted up 16: the low 16 bits of the shift by 9.
-                let j = _mm_slli_epi32::<16>(_mm_srai_epi32::<9>(sum));
+                // The sample as i16, shifted up 16: its low 16 bits.
+                let j = _mm_slli_epi32::<16>(sample4(weights, top, bottom));
                 let gi = add(madd(i, low15), _mm_slli_epi32::<15>(madd(i, high)));
                 let corrected = _mm_sub_epi32(j, gi);
                 let below = _mm_cmpgt_epi32(bias_lanes, corrected);
@@ -623,18 +620,13 @@ fn weight_pairs(w: &[i32; 4]) -> Option<(__m128i, __m128i)> {
 /// weight pairs), rounding, shift and truncation.
 #[inline(always)]
 fn bilinear8(
-    (upper, lower): (__m128i, __m128i),
+    weights: (__m128i, __m128i),
     (t0, t1): (__m128i, __m128i),
     (b0, b1): (__m128i, __m128i),
 ) -> __m128i {
-    const SHIFT: i32 = (WEIGHT_BITS - SAMPLE_BITS) as i32;
     // SAFETY: register arithmetic on an SSE2 target (module docs).
     unsafe {
-        let round = _mm_set1_epi32(1 << (SHIFT - 1));
-        let four = |top, bottom| {
-            let sum = add(add(madd(top, upper), madd(bottom, lower)), round);
-            low_halves(_mm_srai_epi32::<SHIFT>(sum))
-        };
+        let four = |top, bottom| low_halves(sample4(weights, top, bottom));
         let low = four(_mm_unpacklo_epi16(t0, t1), _mm_unpacklo_epi16(b0, b1));
         let high = four(_mm_unpackhi_epi16(t0, t1), _mm_unpackhi_epi16(b0, b1));
         _mm_packs_epi32(low, high)
@@ -758,6 +750,67 @@ fn smooth(a: __m128i, b: __m128i, c: __m128i) -> (__m128i, __m128i) {
         let high = madd(_mm_unpackhi_epi16(outer, b), weights);
         (low, high)
     }
+}
+
+/// Four samples between pixels, as 32-bit lanes, from the interleaved pixel pairs of the rows
+/// above (`top`) and below (`bottom`) and the weights' pairs.
+#[inline(always)]
+fn sample4((upper, lower): (__m128i, __m128i), top: __m128i, bottom: __m128i) -> __m128i {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        let round = _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1));
+        let sum = add(add(madd(top, upper), madd(bottom, lower)), round);
+        _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum)
+    }
+}
+
+/// Eight samples between pixels, exact in `i16` (0..=8160): [`sample4`] of both halves, packed.
+#[inline(always)]
+fn sample8(
+    weights: (__m128i, __m128i),
+    top: (__m128i, __m128i),
+    bottom: (__m128i, __m128i),
+) -> __m128i {
+    let (low, high) = (
+        sample4(weights, top.0, bottom.0),
+        sample4(weights, top.1, bottom.1),
+    );
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe { _mm_packs_epi32(low, high) }
+}
+
+/// A patch row's samples one and two columns right of each lane of `a0`, whose next eight
+/// columns are `a1`: `(middle0, right0, middle1, right1)`, zeros shifted in past `a1`.
+#[inline(always)]
+fn neighbours(a0: __m128i, a1: __m128i) -> (__m128i, __m128i, __m128i, __m128i) {
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    unsafe {
+        (
+            _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
+            _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
+            _mm_srli_si128::<2>(a1),
+            _mm_srli_si128::<4>(a1),
+        )
+    }
+}
+
+/// A window row's `(dx, dy)` from its three patch rows' differences two columns apart and the
+/// horizontal smoothings of the patch rows above and below it.
+#[inline(always)]
+fn derivatives(
+    [d_up, d_mid, d_down]: [__m128i; 3],
+    s_up: (__m128i, __m128i),
+    s_down: (__m128i, __m128i),
+) -> (__m128i, __m128i) {
+    let (low, high) = smooth(d_up, d_mid, d_down);
+    // SAFETY: register arithmetic on an SSE2 target (module docs).
+    let (gy_low, gy_high) = unsafe {
+        (
+            _mm_sub_epi32(s_down.0, s_up.0),
+            _mm_sub_epi32(s_down.1, s_up.1),
+        )
+    };
+    (rescale_exact(low, high), rescale_exact(gy_low, gy_high))
 }
 
 /// [`super::runs::sampled_template`]. For pixels `0..=255` and weights that sum to at most
@@ -909,25 +962,14 @@ fn frame_pairs(
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(always)]
 fn template_rows_12(
-    (upper, lower): (__m128i, __m128i),
+    sample_weights: (__m128i, __m128i),
     pairs: impl Fn(usize) -> Option<((__m128i, __m128i), __m128i)>,
     n: usize,
     pitch: usize,
     [intensity, dx, dy]: [&mut [i16]; 3],
 ) -> Option<()> {
     let win = n.checked_sub(3)?;
-    // SAFETY: register arithmetic on an SSE2 target (module docs).
-    let (round, weights) = unsafe {
-        (
-            _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1)),
-            pairs_of(3, 10),
-        )
-    };
-    let four = |t, b| {
-        let sum = add(add(madd(t, upper), madd(b, lower)), round);
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        unsafe { _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum) }
-    };
+    let weights = pairs_of(3, 10);
     // `3 (a + c) + 10 b` of the first four lanes.
     let smooth4 = |a: __m128i, b: __m128i, c: __m128i| {
         // SAFETY: register arithmetic on an SSE2 target (module docs).
@@ -960,22 +1002,12 @@ fn template_rows_12(
     let (mut d1, mut s1) = ([zero(); 2], [zero(); 2]);
     for r in 0..n - 1 {
         let (bottom, bottom_right) = pairs(r + 1)?;
+        let a0 = sample8(sample_weights, top, bottom);
+        let right = sample4(sample_weights, top_right, bottom_right);
         // SAFETY: register arithmetic on an SSE2 target (module docs).
-        let (a0, a1) = unsafe {
-            let a0 = _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1));
-            let right = four(top_right, bottom_right);
-            (a0, _mm_packs_epi32(right, right))
-        };
+        let a1 = unsafe { _mm_packs_epi32(right, right) };
         (top, top_right) = (bottom, bottom_right);
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        let (middle0, right0, middle1, right1) = unsafe {
-            (
-                _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
-                _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
-                _mm_srli_si128::<2>(a1),
-                _mm_srli_si128::<4>(a1),
-            )
-        };
+        let (middle0, right0, middle1, right1) = neighbours(a0, a1);
         // SAFETY: register arithmetic on an SSE2 target (module docs).
         let (diff0, diff1) = unsafe { (_mm_sub_epi16(right0, a0), _mm_sub_epi16(right1, a1)) };
         let smooth0 = smooth(a0, middle0, right0);
@@ -987,18 +1019,10 @@ fn template_rows_12(
         }
         if r >= 2 {
             let at = (r - 2) * pitch;
+            let (gx0, gy0) = derivatives([d0[0], d0[1], diff0], s0[0], smooth0);
             // SAFETY: register arithmetic on an SSE2 target (module docs).
-            let (gx0, gy0, gx1, gy1) = unsafe {
-                let (low, high) = smooth(d0[0], d0[1], diff0);
-                let gy_low = _mm_sub_epi32(smooth0.0, s0[0].0);
-                let gy_high = _mm_sub_epi32(smooth0.1, s0[0].1);
-                (
-                    rescale_exact(low, high),
-                    rescale_exact(gy_low, gy_high),
-                    rescale4(smooth4(d1[0], d1[1], diff1)),
-                    rescale4(_mm_sub_epi32(smooth1, s1[0])),
-                )
-            };
+            let gy1 = rescale4(unsafe { _mm_sub_epi32(smooth1, s1[0]) });
+            let gx1 = rescale4(smooth4(d1[0], d1[1], diff1));
             store_at(dx, at, gx0);
             store_at(dy, at, gy0);
             put2(dx, at + LANES, gx1);
@@ -1020,7 +1044,7 @@ fn template_rows_12(
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(always)]
 fn template_rows_16(
-    (upper, lower): (__m128i, __m128i),
+    sample_weights: (__m128i, __m128i),
     source: &[i16],
     n: usize,
     pitch: usize,
@@ -1049,17 +1073,6 @@ fn template_rows_16(
             ]
         })
     };
-    let sample = |top: (__m128i, __m128i), bottom: (__m128i, __m128i)| {
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        unsafe {
-            let round = _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1));
-            let four = |t, b| {
-                let sum = add(add(madd(t, upper), madd(b, lower)), round);
-                _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum)
-            };
-            _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1))
-        }
-    };
     // Stores block `b` of window row `row` (see above).
     let put = |buf: &mut [i16], row: usize, b: usize, v: __m128i| {
         let at = row * pitch + b * LANES;
@@ -1081,19 +1094,6 @@ fn template_rows_16(
         let difference = unsafe { _mm_sub_epi16(right, a) };
         (difference, smooth(a, middle, right))
     };
-    // The derivatives of a window row from its three patch rows' differences and the
-    // smoothings of the rows above and below.
-    let derivatives = |[d_up, d_mid, d_down]: [__m128i; 3],
-                       s_up: (__m128i, __m128i),
-                       s_down: (__m128i, __m128i)| {
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        unsafe {
-            let (low, high) = smooth(d_up, d_mid, d_down);
-            let gy_low = _mm_sub_epi32(s_down.0, s_up.0);
-            let gy_high = _mm_sub_epi32(s_down.1, s_up.1);
-            (rescale_exact(low, high), rescale_exact(gy_low, gy_high))
-        }
-    };
     let second = win > LANES;
     let [mut top0, mut top1] = pairs(0)?;
     let zeros = (zero(), zero());
@@ -1101,17 +1101,10 @@ fn template_rows_16(
     let (mut d1, mut s1) = ([zero(); 2], [zeros; 2]);
     for r in 0..n - 1 {
         let [bottom0, bottom1] = pairs(r + 1)?;
-        let (a0, a1) = (sample(top0, bottom0), sample(top1, bottom1));
+        let a0 = sample8(sample_weights, top0, bottom0);
+        let a1 = sample8(sample_weights, top1, bottom1);
         (top0, top1) = (bottom0, bottom1);
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        let (middle0, right0, middle1, right1) = unsafe {
-            (
-                _mm_or_si128(_mm_srli_si128::<2>(a0), _mm_slli_si128::<14>(a1)),
-                _mm_or_si128(_mm_srli_si128::<4>(a0), _mm_slli_si128::<12>(a1)),
-                _mm_srli_si128::<2>(a1),
-                _mm_srli_si128::<4>(a1),
-            )
-        };
+        let (middle0, right0, middle1, right1) = neighbours(a0, a1);
         let (diff0, smooth0) = block(a0, middle0, right0);
         let (diff1, smooth1) = block(a1, middle1, right1);
         if r >= 1 && r <= win {
@@ -1142,7 +1135,7 @@ fn template_rows_16(
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(always)]
 fn template_column(
-    (upper, lower): (__m128i, __m128i),
+    sample_weights: (__m128i, __m128i),
     source: &[i16],
     n: usize,
     c: usize,
@@ -1156,18 +1149,6 @@ fn template_column(
         // SAFETY: register arithmetic on an SSE2 target (module docs).
         Some(unsafe { (_mm_unpacklo_epi16(a, b), _mm_unpackhi_epi16(a, b)) })
     };
-    // Eight samples from the pairs of the rows above and below, exact in `i16` (0..=8160).
-    let sample = |top: (__m128i, __m128i), bottom: (__m128i, __m128i)| {
-        // SAFETY: register arithmetic on an SSE2 target (module docs).
-        unsafe {
-            let round = _mm_set1_epi32(1 << (WEIGHT_BITS - SAMPLE_BITS - 1));
-            let four = |t, b| {
-                let sum = add(add(madd(t, upper), madd(b, lower)), round);
-                _mm_srai_epi32::<{ (WEIGHT_BITS - SAMPLE_BITS) as i32 }>(sum)
-            };
-            _mm_packs_epi32(four(top.0, bottom.0), four(top.1, bottom.1))
-        }
-    };
     let (mut top_a, mut top_b) = (pairs(0, c)?, pairs(0, c.checked_add(2)?)?);
     // The last two patch rows' differences two columns apart and horizontal smoothings.
     let mut differences = [zero(); 2];
@@ -1175,7 +1156,8 @@ fn template_column(
     for r in 0..n - 1 {
         let (bottom_a, bottom_b) = (pairs(r + 1, c)?, pairs(r + 1, c + 2)?);
         // Patch columns c.., c + 2.. and, between them, c + 1..: the template's intensities.
-        let (a, b) = (sample(top_a, bottom_a), sample(top_b, bottom_b));
+        let a = sample8(sample_weights, top_a, bottom_a);
+        let b = sample8(sample_weights, top_b, bottom_b);
         (top_a, top_b) = (bottom_a, bottom_b);
         // SAFETY: register arithmetic on an SSE2 target (module docs).
         let (middle, difference) = unsafe {
@@ -1192,15 +1174,7 @@ fn template_column(
         }
         if let Some(row) = r.checked_sub(2) {
             let [d_up, d_mid] = differences;
-            let [(s_up_low, s_up_high), _] = smoothings;
-            // SAFETY: register arithmetic on an SSE2 target (module docs).
-            let (gx, gy) = unsafe {
-                let (low, high) = smooth(d_up, d_mid, difference);
-                let gx = rescale_exact(low, high);
-                let gy_low = _mm_sub_epi32(smoothing.0, s_up_low);
-                let gy_high = _mm_sub_epi32(smoothing.1, s_up_high);
-                (gx, rescale_exact(gy_low, gy_high))
-            };
+            let (gx, gy) = derivatives([d_up, d_mid, difference], smoothings[0], smoothing);
             let at = row * pitch + c;
             store_at(dx, at, gx);
             store_at(dy, at, gy);

@@ -540,8 +540,9 @@ impl Default for TrackerConfig {
 
 impl TrackerConfig {
     /// The flow-sensor preset: what a flight controller needs to feed the autopilot's
-    /// OPTICAL_FLOW_RAD at 400 Hz from 160 x 120 frames, within about 420,000 instructions a
-    /// frame on a Cortex-M4 (all in: pyramid, tracking, refill, the motion fit).
+    /// OPTICAL_FLOW_RAD at 400 Hz from 160 x 120 frames on a Cortex-M4 at 168 MHz, all in:
+    /// pyramid, tracking, refill and the motion fit (its instructions a frame are measured by
+    /// `bench/target.sh`, figures in the README).
     ///
     /// 25 tracks spread by a 5 x 5 grid (as PX4FLOW's 25 blocks), 7 x 7 windows on two levels
     /// whose coarse level is a 2 x 2 box mean, FAST corners on the coarse level, the

@@ -385,7 +385,7 @@ pub fn fit<C: Correspondence>(kind: ModelKind, pairs: &[C]) -> Result<Homography
     if !pairs.iter().all(|c| Pair::of(c).is_valid()) {
         return Err(FitError::BadInput);
     }
-    fit_pairs(kind, pairs.iter().map(Pair::of))
+    fit_pairs(kind, Pairs::new(pairs, Pick::All))
 }
 
 /// A correspondence as `f32` pixels.
@@ -409,19 +409,76 @@ impl Pair {
     }
 }
 
-/// Least-squares fit over already validated pairs; the iterator is walked several times.
-pub(super) fn fit_pairs<I>(kind: ModelKind, pairs: I) -> Result<Homography, FitError>
-where
-    I: Iterator<Item = Pair> + Clone,
-{
-    let count = pairs.clone().count();
+/// The pairs a fit reads, several times over: `pairs` as `pick` selects them, in order. One
+/// type for every selection (a sample, the inliers, all), so that each fit is built once for a
+/// type of correspondence: on the Cortex-M4 each iterator type a fit took was another copy of
+/// the fits in flash.
+pub(super) struct Pairs<'a, C> {
+    pairs: &'a [C],
+    pick: Pick<'a>,
+    next: usize,
+}
+
+/// Which of a slice's correspondences [`Pairs`] yields.
+#[derive(Clone, Copy)]
+pub(super) enum Pick<'a> {
+    All,
+    /// These indices, in their order.
+    Indices(&'a [usize]),
+    /// Those whose flag is set.
+    Flagged(&'a [bool]),
+}
+
+// By hand: a derive would ask `C: Clone` of the borrowed slice's items.
+impl<C> Clone for Pairs<'_, C> {
+    fn clone(&self) -> Self {
+        Self { ..*self }
+    }
+}
+
+impl<'a, C> Pairs<'a, C> {
+    pub fn new(pairs: &'a [C], pick: Pick<'a>) -> Self {
+        Self {
+            pairs,
+            pick,
+            next: 0,
+        }
+    }
+}
+
+impl<C: Correspondence> Iterator for Pairs<'_, C> {
+    type Item = Pair;
+
+    fn next(&mut self) -> Option<Pair> {
+        loop {
+            let i = self.next;
+            self.next = i.saturating_add(1);
+            let index = match self.pick {
+                Pick::All => i,
+                Pick::Indices(indices) => *indices.get(i)?,
+                Pick::Flagged(flags) => match flags.get(i)? {
+                    true => i,
+                    false => continue,
+                },
+            };
+            return self.pairs.get(index).map(Pair::of);
+        }
+    }
+}
+
+/// Least-squares fit over already validated pairs; they are walked several times.
+pub(super) fn fit_pairs<C: Correspondence>(
+    kind: ModelKind,
+    pairs: Pairs<'_, C>,
+) -> Result<Homography, FitError> {
+    let (prev, next, count) = Moments::of_pairs(pairs.clone()).ok_or(FitError::TooFewPoints)?;
     if count < kind.min_samples() {
         return Err(FitError::TooFewPoints);
     }
     let model = match kind {
         ModelKind::Translation => translation(pairs, count),
-        ModelKind::Similarity => similarity(pairs),
-        ModelKind::Affine => affine(pairs),
+        ModelKind::Similarity => similarity(pairs, &prev, next.mean),
+        ModelKind::Affine => affine(pairs, &prev, next.mean),
         ModelKind::Homography if count == 4 => {
             let mut four = [Pair::default(); 4];
             for (slot, pair) in four.iter_mut().zip(pairs) {
@@ -429,7 +486,7 @@ where
             }
             homography_from_four(&four)
         }
-        ModelKind::Homography => homography_least_squares(pairs),
+        ModelKind::Homography => homography_least_squares(pairs, &prev, &next),
     }?;
     // A model that collapses the image (zero scale) fits but explains nothing.
     model.inverse().ok_or(FitError::Degenerate)?;
@@ -438,13 +495,8 @@ where
 
 /// True when the points cannot determine a model of `kind` whatever the sample: all coincident
 /// (similarity and up) or collinear in either frame (affine and homography).
-pub(super) fn is_degenerate<I>(kind: ModelKind, pairs: I) -> bool
-where
-    I: Iterator<Item = Pair> + Clone,
-{
-    let prev = Moments::of(pairs.clone().map(|p| p.prev));
-    let next = Moments::of(pairs.map(|p| p.next));
-    let (Some(prev), Some(next)) = (prev, next) else {
+pub(super) fn is_degenerate<C: Correspondence>(kind: ModelKind, pairs: Pairs<'_, C>) -> bool {
+    let Some((prev, next, _)) = Moments::of_pairs(pairs) else {
         return true;
     };
     match kind {
@@ -462,16 +514,15 @@ fn translation<I: Iterator<Item = Pair>>(pairs: I, count: usize) -> Result<Homog
     Homography::translation(sx / n, sy / n).ok_or(FitError::Degenerate)
 }
 
-fn similarity<I>(pairs: I) -> Result<Homography, FitError>
+/// The similarity fit, from the pairs' moments in the previous frame and their mean in the next.
+fn similarity<I>(pairs: I, prev: &Moments, m_next: (f32, f32)) -> Result<Homography, FitError>
 where
-    I: Iterator<Item = Pair> + Clone,
+    I: Iterator<Item = Pair>,
 {
-    let prev = Moments::of(pairs.clone().map(|p| p.prev)).ok_or(FitError::TooFewPoints)?;
     if !prev.is_spread() {
         return Err(FitError::Degenerate);
     }
     let m = prev.mean;
-    let m_next = mean(pairs.clone().map(|p| p.next)).ok_or(FitError::TooFewPoints)?;
     let (mut dot, mut cross) = (0.0f32, 0.0f32);
     for pair in pairs {
         let (x, y) = sub(pair.prev, m);
@@ -487,16 +538,15 @@ where
     Homography::from_matrix([a, -b, tx, b, a, ty, 0.0, 0.0, 1.0]).ok_or(FitError::Degenerate)
 }
 
-fn affine<I>(pairs: I) -> Result<Homography, FitError>
+/// The affine fit, from the pairs' moments in the previous frame and their mean in the next.
+fn affine<I>(pairs: I, prev: &Moments, m_next: (f32, f32)) -> Result<Homography, FitError>
 where
-    I: Iterator<Item = Pair> + Clone,
+    I: Iterator<Item = Pair>,
 {
-    let prev = Moments::of(pairs.clone().map(|p| p.prev)).ok_or(FitError::TooFewPoints)?;
     if !prev.is_planar() {
         return Err(FitError::Degenerate);
     }
     let m = prev.mean;
-    let m_next = mean(pairs.clone().map(|p| p.next)).ok_or(FitError::TooFewPoints)?;
     // Cross moments between next and previous centred coordinates.
     let (mut uxx, mut uxy, mut vxx, mut vxy) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
     for pair in pairs {
@@ -519,12 +569,15 @@ where
     Homography::from_matrix([a11, a12, tx, a21, a22, ty, 0.0, 0.0, 1.0]).ok_or(FitError::Degenerate)
 }
 
-fn homography_least_squares<I>(pairs: I) -> Result<Homography, FitError>
+/// The homography's least-squares (DLT) fit, from the pairs' moments in both frames.
+fn homography_least_squares<I>(
+    pairs: I,
+    prev: &Moments,
+    next: &Moments,
+) -> Result<Homography, FitError>
 where
-    I: Iterator<Item = Pair> + Clone,
+    I: Iterator<Item = Pair>,
 {
-    let prev = Moments::of(pairs.clone().map(|p| p.prev)).ok_or(FitError::TooFewPoints)?;
-    let next = Moments::of(pairs.clone().map(|p| p.next)).ok_or(FitError::TooFewPoints)?;
     if !prev.is_planar() || !next.is_planar() {
         return Err(FitError::Degenerate);
     }
@@ -623,6 +676,50 @@ struct Moments {
 
 impl Moments {
     /// `None` for an empty set. Two passes: centring first keeps the sums accurate.
+    /// The moments of the pairs' previous and next points and their count, in two passes over
+    /// both (means, then centred sums: the same sums as [`Moments::of`] of each, in one walk).
+    fn of_pairs<I: Iterator<Item = Pair> + Clone>(pairs: I) -> Option<(Self, Self, usize)> {
+        let zero = (0.0f32, 0.0f32);
+        let (sum_prev, sum_next, n) =
+            pairs.clone().fold((zero, zero, 0usize), |(p, q, n), pair| {
+                let add = |a: (f32, f32), b: (f32, f32)| (a.0 + b.0, a.1 + b.1);
+                (add(p, pair.prev), add(q, pair.next), n.saturating_add(1))
+            });
+        // Counts of a slice's items are exact in f32 up to 2^24, far beyond any frame's tracks.
+        #[allow(clippy::cast_precision_loss)]
+        let count = n as f32;
+        let means = (n > 0).then(|| {
+            let mean = |s: (f32, f32)| (s.0 / count, s.1 / count);
+            (mean(sum_prev), mean(sum_next))
+        });
+        let (mean_prev, mean_next) = means?;
+        let (mut prev, mut next) = (Self::empty(mean_prev), Self::empty(mean_next));
+        for pair in pairs {
+            prev.add(pair.prev);
+            next.add(pair.next);
+        }
+        Some((prev, next, n))
+    }
+
+    fn empty(mean: (f32, f32)) -> Self {
+        Self {
+            count: 0.0,
+            mean,
+            sxx: 0.0,
+            sxy: 0.0,
+            syy: 0.0,
+        }
+    }
+
+    /// Adds `p`'s centred products.
+    fn add(&mut self, p: (f32, f32)) {
+        let (x, y) = sub(p, self.mean);
+        self.sxx += x * x;
+        self.sxy += x * y;
+        self.syy += y * y;
+        self.count += 1.0;
+    }
+
     fn of<I: Iterator<Item = (f32, f32)> + Clone>(points: I) -> Option<Self> {
         let mean = mean(points.clone())?;
         let (mut sxx, mut sxy, mut syy, mut count) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);

@@ -1,7 +1,7 @@
 //! Deterministic, bounded-time robust estimation of the dominant motion (RANSAC).
 
 use super::linalg::sqrt;
-use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair};
+use super::model::{self, Correspondence, FitError, Homography, ModelKind, Pair, Pairs, Pick};
 use crate::{Bound, ConfigError};
 
 /// The generator seed used unless the parameters say otherwise: the seed decides which
@@ -381,7 +381,7 @@ impl Ransac {
         if pairs.len() < self.min_consensus() {
             return failed(EgoStatus::TooFewTracks, 0);
         }
-        if model::is_degenerate(kind, pairs.iter().map(Pair::of)) {
+        if model::is_degenerate(kind, Pairs::new(pairs, Pick::All)) {
             return failed(EgoStatus::Degenerate, 0);
         }
         let (best, iterations) = self.search(pairs);
@@ -423,7 +423,8 @@ impl Ransac {
         while iterations < budget {
             iterations = iterations.saturating_add(1);
             let mut sample = [Pair::default(); 4];
-            for (slot, index) in sample.iter_mut().zip(rng.sample(pairs.len(), size)) {
+            let indices = rng.sample(pairs.len(), size);
+            for (slot, &index) in sample.iter_mut().zip(&indices) {
                 if let Some(c) = pairs.get(index) {
                     *slot = Pair::of(c);
                 }
@@ -431,7 +432,8 @@ impl Ransac {
             // A model needs at most four pairs (`min_samples`), the sample's length.
             debug_assert!(size <= sample.len(), "{size} samples in {}", sample.len());
             let sample = sample.get(..size).unwrap_or(&[]);
-            let Ok(model) = model::fit_pairs(kind, sample.iter().copied()) else {
+            let chosen = indices.get(..size).unwrap_or(&[]);
+            let Ok(model) = model::fit_pairs(kind, Pairs::new(pairs, Pick::Indices(chosen))) else {
                 continue;
             };
             if !is_plausible(&model, sample) {
@@ -461,11 +463,7 @@ impl Ransac {
     ) -> Result<Homography, EgoStatus> {
         let mut cost = self.mark(pairs, &model, flags).cost;
         for _ in 0..MAX_REFITS {
-            let selected = pairs
-                .iter()
-                .zip(flags.iter())
-                .filter(|(_, &inlier)| inlier)
-                .map(|(c, _)| Pair::of(c));
+            let selected = Pairs::new(pairs, Pick::Flagged(flags));
             let refit = match model::fit_pairs(self.params.model, selected) {
                 Ok(refit) => refit,
                 // The consensus set lies on a line: the data do not determine the model.

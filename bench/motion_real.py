@@ -210,6 +210,12 @@ def recipe(images, frames, options):
     return boxes
 
 
+def at_least(boxes_by_frame, min_area):
+    """The boxes of at least `min_area` px: the movers the reference and the recipe keep."""
+    return {k: [b for b in boxes if b[2] * b[3] >= min_area]
+            for k, boxes in boxes_by_frame.items()}
+
+
 def read_boxes(path):
     boxes = {}
     with open(path, newline="") as f:
@@ -308,7 +314,9 @@ def measure_clip(name, images, options, workdir):
     scored = sorted(ref)
     frames_dir = os.path.join(workdir, "frames")
     write_frames(images, frames_dir)
-    found = {"Kestrel": kestrel(frames_dir, workdir, options.motion_flags),
+    h, w = images[0].shape
+    found = {"Kestrel": at_least(kestrel(frames_dir, workdir, options.motion_flags),
+                                 options.min_area * w * h),
              "recipe": recipe(images, scored, options)}
     for gap in options.join_px:
         found[f"Kestrel joined within {gap:g} px"] = joined(found["Kestrel"], gap)
@@ -394,7 +402,9 @@ def synthetic(options, workdir):
             found = {"reference": reference(images, runs, to_first, small)}
             scored = sorted(found["reference"])
             found["recipe"] = recipe(images, scored, small)
-            found["Kestrel"] = kestrel(frames_dir, directory, options.motion_flags)
+            h, w = images[0].shape
+            found["Kestrel"] = at_least(kestrel(frames_dir, directory, options.motion_flags),
+                                        SYNTHETIC_MIN_AREA * w * h)
             for gap in options.join_px:
                 found[f"Kestrel joined within {gap:g} px"] = joined(found["Kestrel"], gap)
             for who, boxes in found.items():

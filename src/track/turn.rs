@@ -173,6 +173,13 @@ impl Turn {
         self.change_sq() > FAST * FAST
     }
 
+    /// True when the turn scales by less than `limit` (`||z| - 1| < limit`).
+    pub fn zooms_less_than(self, limit: f32) -> bool {
+        let scale_sq = self.re * self.re + self.im * self.im;
+        let (low, high) = (1.0 - limit, 1.0 + limit);
+        low * low < scale_sq && scale_sq < high * high
+    }
+
     /// `|z - 1|^2`.
     fn change_sq(self) -> f32 {
         let (dr, di) = (self.re - 1.0, self.im);

@@ -882,6 +882,25 @@ pub(super) fn sampled_template(
     }
 }
 
+/// Row `r` of gathered values `n` apart: the `REACH` values from its start, if `source` holds
+/// them.
+#[inline(always)]
+fn source_row<const REACH: usize>(source: &[i16], n: usize, r: usize) -> Option<&[i16; REACH]> {
+    let start = r.checked_mul(n)?;
+    source
+        .get(start..start.checked_add(REACH)?)?
+        .try_into()
+        .ok()
+}
+
+/// Eight values of `row` from `k` in a register, if it holds them.
+#[inline(always)]
+fn eight_at<const REACH: usize>(row: &[i16; REACH], k: usize) -> Option<__m128i> {
+    row.get(k..k.checked_add(LANES)?)
+        .and_then(|v| v.try_into().ok())
+        .map(load)
+}
+
 /// [`template_rows_12`]'s source row `r` from gathered values (rows `n` apart, with the slack
 /// its four-lane loads reach into): the interleaved pairs (value k, value k + 1) of columns
 /// 0..8 in two registers, of columns 8..12 in one.
@@ -889,16 +908,8 @@ pub(super) fn sampled_template(
 #[inline(always)]
 fn gathered_pairs(source: &[i16], n: usize, r: usize) -> Option<((__m128i, __m128i), __m128i)> {
     const REACH: usize = LANES + 1 + 4;
-    let start = r.checked_mul(n)?;
-    let row: &[i16; REACH] = source
-        .get(start..start.checked_add(REACH)?)?
-        .try_into()
-        .ok()?;
-    let at = |k: usize| {
-        row.get(k..k + LANES)
-            .and_then(|v| v.try_into().ok())
-            .map(load)
-    };
+    let row = source_row::<REACH>(source, n, r)?;
+    let at = |k: usize| eight_at(row, k);
     let load4 = |k: usize| -> Option<__m128i> {
         let four: &[i16; 4] = row.get(k..k + 4)?.try_into().ok()?;
         // SAFETY: reads the 8 bytes of `four`, with no alignment needed (module docs).
@@ -1054,16 +1065,8 @@ fn template_rows_16(
     let win = n.checked_sub(3)?;
     // The interleaved pairs (value k, value k + 1) of source row `r`, columns 0.. and 8..
     let pairs = |r: usize| -> Option<[(__m128i, __m128i); 2]> {
-        let start = r.checked_mul(n)?;
-        let row: &[i16; REACH] = source
-            .get(start..start.checked_add(REACH)?)?
-            .try_into()
-            .ok()?;
-        let at = |k: usize| {
-            row.get(k..k + LANES)
-                .and_then(|v| v.try_into().ok())
-                .map(load)
-        };
+        let row = source_row::<REACH>(source, n, r)?;
+        let at = |k: usize| eight_at(row, k);
         let (a, b, c, d) = (at(0)?, at(1)?, at(LANES)?, at(LANES + 1)?);
         // SAFETY: register arithmetic on an SSE2 target (module docs).
         Some(unsafe {

@@ -71,7 +71,8 @@ pub(super) struct Anchor {
     /// Grey levels, row by row.
     samples: [u8; SAMPLES],
     /// The same grid on the image smoothed over 2 x 2 px ([`smooth_patch`]), grey levels:
-    /// what relocation looks for while the image has not turned since the anchor's birth.
+    /// what relocation looks for while the image has zoomed by less than [`SMOOTH_ZOOM`] since
+    /// the anchor's birth.
     smooth: [u8; SAMPLES],
     /// How the image has turned and zoomed since: the patch is sampled turned as much.
     turned: Turn,
@@ -167,10 +168,9 @@ impl Anchor {
     /// patch best matches the anchor after a gain and a bias, by inverse-compositional
     /// Gauss-Newton on the patch's 49 samples: while the image has zoomed by less than
     /// [`SMOOTH_ZOOM`], on the image smoothed over 2 x 2 px ([`smooth_patch`]), since a fine
-    /// texture sampled 2 px apart
-    /// aliases and its samples at another sub-pixel phase would place the feature off LK's
-    /// answer by a bias. [`Located::Lost`] when the anchor has no texture
-    /// in two directions, the match has no positive correlation, the search goes farther from
+    /// texture sampled 2 px apart aliases and its samples at another sub-pixel phase would
+    /// place the feature off LK's answer by a bias. [`Located::Lost`] when the anchor has no
+    /// texture in two directions, the match has no positive correlation, the search goes farther from
     /// `start` than the square root of `max_shift_sq` (squared Q16 units), or it has not settled
     /// after [`LOCATE_ITERATIONS`] steps. Near the frame's edge only the samples inside it are
     /// compared, and [`Located::OutOfView`] says that fewer than [`MIN_VISIBLE`] are.
@@ -759,7 +759,7 @@ mod tests {
         })
     }
 
-    /// A texture as fine as grass seen from above: most of its contrast 2-4 px across.
+    /// A fine texture: most of its contrast in waves 5-7 px long, the rest in coarser ones.
     fn fine(shift: (f32, f32)) -> [u8; 48 * 48] {
         core::array::from_fn(|i| {
             let (x, y) = ((i % 48) as f32 - shift.0, (i / 48) as f32 - shift.1);

@@ -484,7 +484,7 @@ pub(super) fn fit_pairs<C: Correspondence>(
             for (slot, pair) in four.iter_mut().zip(pairs) {
                 *slot = pair;
             }
-            homography_from_four(&four)
+            homography_from_four(&four, &prev, &next)
         }
         ModelKind::Homography => homography_least_squares(pairs, &prev, &next),
     }?;
@@ -608,7 +608,12 @@ where
     denormalise(h, &from, &to)
 }
 
-fn homography_from_four(four: &[Pair; 4]) -> Result<Homography, FitError> {
+/// The homography through four pairs, whose moments in both frames `prev` and `next` are.
+fn homography_from_four(
+    four: &[Pair; 4],
+    prev: &Moments,
+    next: &Moments,
+) -> Result<Homography, FitError> {
     const TRIPLES: [[usize; 3]; 4] = [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]];
     for [i, j, k] in TRIPLES {
         let (Some(&a), Some(&b), Some(&c)) = (four.get(i), four.get(j), four.get(k)) else {
@@ -618,8 +623,6 @@ fn homography_from_four(four: &[Pair; 4]) -> Result<Homography, FitError> {
             return Err(FitError::Degenerate);
         }
     }
-    let prev = Moments::of(four.iter().map(|p| p.prev)).ok_or(FitError::TooFewPoints)?;
-    let next = Moments::of(four.iter().map(|p| p.next)).ok_or(FitError::TooFewPoints)?;
     let (from, to) = (prev.normalisation(), next.normalisation());
     let mut a = [[0.0f32; 8]; 8];
     let mut b = [0.0f32; 8];
@@ -675,9 +678,8 @@ struct Moments {
 }
 
 impl Moments {
-    /// `None` for an empty set. Two passes: centring first keeps the sums accurate.
-    /// The moments of the pairs' previous and next points and their count, in two passes over
-    /// both (means, then centred sums: the same sums as [`Moments::of`] of each, in one walk).
+    /// The moments of the pairs' previous and next points and their count; `None` for an empty
+    /// set. Two passes over both: centring first keeps the sums accurate.
     fn of_pairs<I: Iterator<Item = Pair> + Clone>(pairs: I) -> Option<(Self, Self, usize)> {
         let zero = (0.0f32, 0.0f32);
         let (sum_prev, sum_next, n) =
@@ -718,25 +720,6 @@ impl Moments {
         self.sxy += x * y;
         self.syy += y * y;
         self.count += 1.0;
-    }
-
-    fn of<I: Iterator<Item = (f32, f32)> + Clone>(points: I) -> Option<Self> {
-        let mean = mean(points.clone())?;
-        let (mut sxx, mut sxy, mut syy, mut count) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-        for p in points {
-            let (x, y) = sub(p, mean);
-            sxx += x * x;
-            sxy += x * y;
-            syy += y * y;
-            count += 1.0;
-        }
-        Some(Self {
-            count,
-            mean,
-            sxx,
-            sxy,
-            syy,
-        })
     }
 
     /// Mean squared distance from the centroid.
@@ -792,13 +775,6 @@ impl Normalisation {
 pub(super) fn to_point((x, y): (f32, f32)) -> Option<Point> {
     const LIMIT: f32 = 32_767.0;
     (x.abs() < LIMIT && y.abs() < LIMIT).then(|| Point::from_f32(x, y))
-}
-
-fn mean<I: Iterator<Item = (f32, f32)>>(points: I) -> Option<(f32, f32)> {
-    let (sx, sy, n) = points.fold((0.0f32, 0.0f32, 0u32), |(sx, sy, n), (x, y)| {
-        (sx + x, sy + y, n.saturating_add(1))
-    });
-    (n > 0).then(|| (sx / n as f32, sy / n as f32))
 }
 
 fn sub(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {

@@ -528,47 +528,41 @@ fn smooth_turned_patch(
     position: Point,
     turn: Turn,
 ) -> ([u16; SAMPLES], u64) {
-    let mut sums = [0u32; SAMPLES];
-    let mut visible = ALL_SAMPLES;
-    for (dx, dy) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
+    let (x, y) = position.to_f32();
+    mean_of_four_patches(|(dx, dy)| {
         let (ox, oy) = turn.apply((dx, dy));
-        let (x, y) = position.to_f32();
         let at = Point::new(q16_from_f32(x + ox), q16_from_f32(y + oy));
-        let (samples, seen) = turned_patch(frame, at, turn);
-        for (sum, sample) in sums.iter_mut().zip(samples) {
-            *sum = sum.saturating_add(u32::from(sample));
-        }
-        visible &= seen;
-    }
-    (mean_of_four(sums), visible)
-}
-
-/// Sums of four samples of at most 4080 (grey x 16), each halved twice, rounded.
-fn mean_of_four(sums: [u32; SAMPLES]) -> [u16; SAMPLES] {
-    sums.map(|sum| u16::try_from(sum.saturating_add(2) >> 2).unwrap_or(u16::MAX))
+        turned_patch(frame, at, turn)
+    })
 }
 
 /// [`smooth_patch`] of a patch the frame's edge cuts: the mean of [`patch`] at the four
-/// positions half a pixel off (its clamped pixels), its samples in the frame where all four's
-/// are.
+/// positions half a pixel off (its clamped pixels).
 fn smooth_patch_clamped(frame: &ImageView<'_>, position: Point) -> ([u16; SAMPLES], u64) {
-    const HALF_PX: i32 = 1 << 15;
+    mean_of_four_patches(|(dx, dy)| {
+        let off =
+            |v: Q16, d: f32| Q16::from_bits(v.to_bits().saturating_add(q16_from_f32(d).to_bits()));
+        patch(frame, Point::new(off(position.x, dx), off(position.y, dy)))
+    })
+}
+
+/// The mean of the four patches `sample` gives half a pixel off on both axes (`(±0.5, ±0.5)`),
+/// its samples in the frame where all four's are.
+fn mean_of_four_patches(
+    sample: impl Fn((f32, f32)) -> ([u16; SAMPLES], u64),
+) -> ([u16; SAMPLES], u64) {
     let mut sums = [0u32; SAMPLES];
     let mut visible = ALL_SAMPLES;
-    for (dx, dy) in [
-        (-HALF_PX, -HALF_PX),
-        (HALF_PX, -HALF_PX),
-        (-HALF_PX, HALF_PX),
-        (HALF_PX, HALF_PX),
-    ] {
-        let off = |v: Q16, d: i32| Q16::from_bits(v.to_bits().saturating_add(d));
-        let (samples, seen) = patch(frame, Point::new(off(position.x, dx), off(position.y, dy)));
+    for offset in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
+        let (samples, seen) = sample(offset);
         for (sum, sample) in sums.iter_mut().zip(samples) {
             *sum = sum.saturating_add(u32::from(sample));
         }
         visible &= seen;
     }
-    (mean_of_four(sums), visible)
+    // Sums of four samples of at most 4080 (grey x 16), halved twice and rounded.
+    let mean = sums.map(|sum| u16::try_from(sum.saturating_add(2) >> 2).unwrap_or(u16::MAX));
+    (mean, visible)
 }
 
 /// True when pixel (`x`, `y`) and its right and lower neighbours lie in `frame`.

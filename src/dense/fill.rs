@@ -112,16 +112,19 @@ fn neighbour_median(
     Some(Point::new(Q16::from_bits(x), Q16::from_bits(y)))
 }
 
-/// The median of at most eight values (the mean of the middle two for an even count); sorts
-/// `values` in place.
+/// The median of at most eight values (the mean of the middle two for an even count);
+/// reorders `values`. Selection rather than a sort, the routine the tracker's medians use: one
+/// copy in the firmware's flash.
 fn median(values: &mut [i32]) -> i32 {
-    values.sort_unstable();
-    let middle = values.len() / 2;
-    let upper = values.get(middle).copied().unwrap_or(0);
-    if values.len() % 2 == 1 {
+    let (middle, odd) = (values.len() / 2, values.len() % 2 == 1);
+    if values.is_empty() {
+        return 0;
+    }
+    let (below, &mut upper, _) = values.select_nth_unstable(middle);
+    if odd {
         return upper;
     }
-    let lower = values.get(middle.wrapping_sub(1)).copied().unwrap_or(upper);
+    let lower = below.iter().copied().max().unwrap_or(upper);
     // The mean of two i32 values is an i32.
     i32::try_from(i64::from(lower).saturating_add(i64::from(upper)) / 2).unwrap_or(upper)
 }

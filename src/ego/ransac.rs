@@ -626,12 +626,16 @@ impl SplitMix64 {
                     index = index.saturating_add(1);
                 }
             }
-            // Keep the chosen indices ascending (the rank mapping above relies on it).
+            // Keep the chosen indices ascending (the rank mapping above relies on it): insert
+            // the new one where it belongs, a step of insertion sort (k < 4).
             if let Some(slot) = chosen.get_mut(k) {
                 *slot = index;
             }
-            if let Some(head) = chosen.get_mut(..=k) {
-                head.sort_unstable();
+            for (i, j) in (0..k).rev().zip((1..=k).rev()) {
+                if chosen.get(i) <= chosen.get(j) {
+                    break;
+                }
+                chosen.swap(i, j);
             }
         }
         chosen

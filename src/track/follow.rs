@@ -285,12 +285,12 @@ impl Follow<'_, '_> {
     /// residual of the tracked steps (at least one grey level) when that is lower.
     fn residual_limit<const N: usize>(&self, steps: &[Forward]) -> Option<Q16> {
         let relative = self.checked.residual_ratio.and_then(|ratio| {
-            let mut residuals: Vec<Q16, N> = steps
+            let mut residuals: Vec<i32, N> = steps
                 .iter()
                 .filter(|s| s.step.is_tracked())
-                .map(|s| s.step.residual)
+                .map(|s| s.step.residual.to_bits())
                 .collect();
-            let median = median(&mut residuals)?;
+            let median = Q16::from_bits(median(&mut residuals)?);
             Some(ratio.saturating_mul(median.max(Q16::ONE)))
         });
         match (self.checked.max_residual, relative) {
@@ -457,8 +457,9 @@ impl<const N: usize> FrameMotion<N> {
 }
 
 /// The median of `values` (the upper one of an even count), reordering them; `None` when
-/// there are none.
-pub(super) fn median<T: Ord + Copy>(values: &mut [T]) -> Option<T> {
+/// there are none. Q16 values go in as their bits, which order alike: one selection routine in
+/// the firmware's flash rather than one per type.
+pub(super) fn median(values: &mut [i32]) -> Option<i32> {
     let middle = values.len() / 2;
     if values.is_empty() {
         return None;

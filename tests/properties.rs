@@ -498,6 +498,7 @@ fn tracker_config() -> impl Strategy<Value = TrackerConfig> {
                         },
                         border,
                         min_distance,
+                        ..Refill::default()
                     },
                     gates: Gates {
                         fb_threshold,

@@ -464,7 +464,8 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     );
 
     assert_eq!(on.hidden_live, 0, "a covered background track lived on");
-    // Measured: 99.3 % of 8743 track-frames within 2 px, and 98.8 % of 86 at frame 100.
+    // Measured: 99.9 % of 7451 track-frames within 2 px, and 100 % of 83 at frame 100 (99.2 %
+    // of 8707 without the refill's cooldown, which keeps new tracks off the occluders' paths).
     assert!(on.within_2px >= 0.99);
     assert!(on.final_within_2px >= 0.97);
     // Nothing dragged along: an occluder carries a track tens of pixels.
@@ -596,6 +597,7 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
                 grid: _,
                 border: _,
                 min_distance: _,
+                cooldown: _,
             },
         relocation:
             Relocation {
@@ -782,6 +784,7 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
             }
         }),
         with(&|c| (c.refill.border, c.refill.min_distance) = (u16::MAX, u16::MAX)),
+        with(&|c| (c.refill.min_distance, c.refill.cooldown) = (u16::MAX, u16::MAX)),
         with(&|c| {
             (
                 c.gates.fb_threshold,
@@ -1126,4 +1129,91 @@ fn a_sudden_reversal_of_the_motion_loses_no_track() {
         percentile(&errors, 0.5)
     );
     assert!(errors.len() >= 50 && percentile(&errors, 0.5) <= 0.1);
+}
+
+/// A still camera over a textured scene with a patch whose pixels change every frame (leaves
+/// in the wind, water): tracks born on the patch fail within a frame or two. Without a pause,
+/// each refill starts tracks there again; with [`Refill::cooldown`] the refill keeps away from
+/// where they failed, so fewer tracks are started and they live longer, and the tracks on the
+/// still background are as right as before.
+#[test]
+fn refill_keeps_away_from_where_young_tracks_failed() {
+    let (width, height) = (160, 120);
+    let sequence = sequence(
+        width,
+        height,
+        4,
+        1,
+        CameraPath::still(centre(width, height)),
+    );
+    // The patch: 40 x 30 px of fresh noise each frame, from a seeded generator.
+    let (px, py, pw, ph) = (60, 40, 40, 30);
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let frames: Vec<Frame> = sequence
+        .frames()
+        .map(|mut frame| {
+            for y in py..py + ph {
+                for x in px..px + pw {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    frame.data[y * width + x] = (state >> 56) as u8;
+                }
+            }
+            frame
+        })
+        .collect();
+    // Within `margin` px of the patch.
+    let near_patch = |(x, y): (f64, f64), margin: f64| {
+        (px as f64 - margin..(px + pw) as f64 + margin).contains(&x)
+            && (py as f64 - margin..(py + ph) as f64 + margin).contains(&y)
+    };
+    let on_patch = |at| near_patch(at, 2.0);
+    // Background: no part of the 21 px window on the patch.
+    let background = |at| !near_patch(at, 11.0);
+    let measure = |cooldown: u16| {
+        let config = TrackerConfig {
+            refill: Refill {
+                cooldown,
+                ..Refill::default()
+            },
+            ..TrackerConfig::default()
+        };
+        let records = run(&frames, config);
+        let births = birth_positions(&records);
+        let born_on_patch = births
+            .values()
+            .filter(|&&(born, at)| born > 0 && on_patch(at))
+            .count();
+        // The camera is still: a background track should stay where it was born.
+        let (mut off, mut total) = (0, 0);
+        for record in &records {
+            for track in &record.tracks {
+                let (_, at) = births[&track.id];
+                if background(at) {
+                    total += 1;
+                    off += usize::from(distance(xy(track.position), at) > 1.0);
+                }
+            }
+        }
+        let life = mean_life(&records);
+        eprintln!(
+            "cooldown {cooldown}: {} ids, {born_on_patch} born on the patch after frame 0, mean \
+             life {life:.1} frames, {off} of {total} background track-frames over 1 px",
+            births.len()
+        );
+        (births.len(), born_on_patch, life, off as f64 / total as f64)
+    };
+    let (ids_without, patch_without, life_without, off_without) = measure(0);
+    let (ids_with, patch_with, life_with, off_with) = measure(32);
+    // Measured: without the cooldown 363 ids, 200 born on the patch, life 22.8 frames; with
+    // it 131, 18 and 61.2. Background track-frames over 1 px: none, and 6 of 7786 (two tracks
+    // on the far side of the frame, 1.06-1.16 px off at ages 39-45).
+    assert!(patch_with * 8 <= patch_without, "births on the patch");
+    assert!(ids_with * 2 <= ids_without, "ids");
+    assert!(life_with >= 2.5 * life_without, "mean life");
+    assert!(
+        off_without <= 0.001 && off_with <= 0.001,
+        "background off by 1 px"
+    );
 }

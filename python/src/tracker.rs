@@ -241,7 +241,7 @@ impl FrameReport {
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
 ///         min_correlation=None, residual_ratio=None, max_relocation=None,
-///         relocate_every=None)
+///         relocate_every=None, refill_cooldown=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
 /// max_tracks: tracks kept at most, 1 to 1000 (refill below 90 %, or 80 % with the preset).
@@ -252,7 +252,8 @@ impl FrameReport {
 /// The other keywords override the configuration's: LK window (odd, 3-63), coarsest level
 /// (0-7), illumination ("gain_bias" or "plain"), forward-backward gate (px), residual gate
 /// (grey levels), least correlation with the birth patch (-1 to 1), relative residual gate,
-/// relocation limit (px) and period (frames, 0 = never).
+/// relocation limit (px) and period (frames, 0 = never), and the refill's cooldown (frames
+/// during which no track starts near where a young one failed, 0-65535, 0 = none).
 ///
 /// `process(frame)` starts on the first frame and follows the tracks on every later one;
 /// `start(frame)` restarts. Both return a FrameReport. The GIL is released while the tracker
@@ -357,7 +358,8 @@ impl Tracker {
     #[new]
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
-        min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None))]
+        min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None,
+        refill_cooldown=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,
@@ -373,6 +375,7 @@ impl Tracker {
         residual_ratio: Option<f64>,
         max_relocation: Option<f64>,
         relocate_every: Option<i64>,
+        refill_cooldown: Option<i64>,
     ) -> PyResult<Self> {
         let size = settings::frame_size(width, height)?;
         let preset = match preset {
@@ -410,6 +413,15 @@ impl Tracker {
             }
             other => other.map(|n| n as u32),
         };
+        let refill_cooldown = refill_cooldown
+            .map(|n| {
+                u16::try_from(n).map_err(|_| {
+                    value_error(format!(
+                        "refill_cooldown must be 0 to 65535 frames: got {n}"
+                    ))
+                })
+            })
+            .transpose()?;
         let settings = TrackerSettings {
             lk: LkSettings {
                 window: window.map(|w| settings::side(w, "window")).transpose()?,
@@ -431,6 +443,7 @@ impl Tracker {
                 .map(|v| settings::non_negative(v, "max_relocation"))
                 .transpose()?,
             relocate_every,
+            refill_cooldown,
         };
         let mut tracker = Tracker {
             config: None,

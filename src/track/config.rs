@@ -401,7 +401,18 @@ pub struct Refill {
     /// New corners keep this far from live tracks and from each other, px at full resolution
     /// (a square of this radius, rounded out to the exclusion mask's cells).
     pub min_distance: u16,
+    /// For this many frames no new track starts within twice `min_distance` of where a track
+    /// failed a gate in its first four frames; 0 turns it off. Such a spot holds a
+    /// feature that changes faster than a track can follow (a walker's limbs, a talking face,
+    /// leaves in the wind): it is often the strongest corner around, so without a pause each
+    /// refill starts a track there again, which fails again a frame or two later.
+    pub cooldown: u16,
 }
+
+/// A track that fails a gate younger than this many frames marks its spot for
+/// [`Refill::cooldown`] frames; an older one failed from something that happened to it (an
+/// occluder, the view turning), not from its place.
+pub(super) const FAILED_YOUNG: u32 = 4;
 
 impl Refill {
     /// The default refill with `detector`.
@@ -417,13 +428,15 @@ impl Refill {
             },
             border: 8,
             min_distance: 5,
+            cooldown: 32,
         }
     }
 }
 
 impl Default for Refill {
     /// Below 80 tracks, [`Detector::default`] on pyramid level 1, at most 3 corners in each
-    /// cell of an 8 x 6 grid, 8 px from the edges and 5 px apart.
+    /// cell of an 8 x 6 grid, 8 px from the edges and 5 px apart, none for 32 frames near where
+    /// a young track failed.
     fn default() -> Self {
         Self::with(Detector::default())
     }

@@ -1,7 +1,7 @@
 //! One frame's step for every live track: LK forwards, then the gates, cheapest first.
 
 use super::anchor::{Anchor, Located};
-use super::config::{Checked, Relocate};
+use super::config::{Checked, Relocate, FAILED_YOUNG};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
 use crate::lk::{inside, LkError, PointTrack, TrackStatus};
@@ -68,6 +68,7 @@ impl Follow<'_, '_> {
         anchors: &mut Vec<Anchor, N>,
         scratch: &mut [i16],
         report: &mut FrameReport,
+        failed_young: &mut dyn FnMut(Point),
     ) -> Result<(), LkError> {
         // Forwards first, for every track: the residual gate needs the frame's median.
         let forward = self.forward_all::<N>(tracks, scratch)?;
@@ -112,7 +113,17 @@ impl Follow<'_, '_> {
             else {
                 break;
             };
-            match self.judge(&track, anchor, fwd, (max_residual, turn), scratch)? {
+            let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
+            if let Err(rejection) = verdict {
+                if rejection != Rejection::OutOfFrame && track.age < FAILED_YOUNG {
+                    // Where its feature is now, as far as LK saw it.
+                    failed_young(match fwd.step.is_tracked() {
+                        true => fwd.step.position,
+                        false => track.position,
+                    });
+                }
+            }
+            match verdict {
                 Ok(position) => {
                     let step = fwd.step.position;
                     let moved = Track {

@@ -100,7 +100,7 @@ use config::Checked;
 use fingerprint::Fingerprint;
 use follow::Follow;
 use heapless::Vec;
-use refill::DetectBuffers;
+use refill::{DetectBuffers, FailedSpots};
 
 /// One tracked feature.
 ///
@@ -344,6 +344,8 @@ pub struct Tracker<'a, const N: usize> {
     height: usize,
     buffers: TrackerBuffers<'a>,
     set: TrackSet<N>,
+    /// Where young tracks failed lately, which refill keeps away from.
+    failed: FailedSpots<N>,
     /// Index the next frame will get.
     next_frame: u32,
     previous: Option<Previous>,
@@ -418,6 +420,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 anchors: Vec::new(),
                 next_id: 0,
             },
+            failed: FailedSpots::new(),
             next_frame: 0,
             previous: None,
         })
@@ -443,6 +446,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
 
         // A restart ends the previous frame's tracks; they are not counted as dropped.
         self.set.clear();
+        self.failed.clear();
         let mut report = FrameReport::default();
         self.refill(frame, half, &mut report)?;
         Ok(self.finish_frame(&frame, half, report))
@@ -538,14 +542,32 @@ impl<'a, const N: usize> Tracker<'a, N> {
             next: &next_pyramid,
             predict,
         };
+        let TrackSet {
+            tracks, anchors, ..
+        } = &mut self.set;
+        let failed = &mut self.failed;
+        let (frame, cooldown) = (self.next_frame, self.config.refill.cooldown);
+        failed.expire(frame, cooldown);
+        let before = tracks.len();
+        let mut mark = |at| {
+            if cooldown > 0 {
+                failed.mark(at, frame);
+            }
+        };
         follow
             .all(
-                &mut self.set.tracks,
-                &mut self.set.anchors,
+                tracks,
+                anchors,
                 self.buffers.lk_scratch,
                 &mut report,
+                &mut mark,
             )
             .map_err(lk_refusal)?;
+        // Most tracks failing at once is the frame's doing (a scene cut, a flat or saturated
+        // frame), not their places': the spots marked so far no longer mean anything either.
+        if before.saturating_sub(tracks.len()).saturating_mul(2) > before {
+            failed.clear();
+        }
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill.below {
@@ -772,6 +794,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             checked: &self.checked,
             size: (self.width, self.height),
             live: &live,
+            cooling: self.failed.spots(),
             room,
         };
         let mut adopt = |position, anchor| set.adopt(position, anchor, born);
@@ -853,6 +876,7 @@ fn start_tracks(
         checked,
         size,
         live,
+        cooling,
         room,
     } = birth;
     let levels = config.pyramid_levels();
@@ -870,7 +894,7 @@ fn start_tracks(
         scratch: buffers.detect_scratch,
         candidates: buffers.candidates,
     };
-    let corners = refill::new_corners(&config.refill, &level_image, size, live, detect)
+    let corners = refill::new_corners(&config.refill, &level_image, size, (live, cooling), detect)
         .map_err(TrackerError::Config)?;
     report.detected = true;
     let mut started = 0;
@@ -928,6 +952,9 @@ struct Birth<'c> {
     size: (usize, usize),
     /// Where the live tracks are: new ones keep their distance.
     live: &'c [Point],
+    /// Where young tracks failed lately: new ones keep twice the distance (see
+    /// [`Refill::cooldown`]).
+    cooling: &'c [(Point, u32)],
     /// How many tracks may start.
     room: usize,
 }

@@ -6,6 +6,7 @@ use crate::detect::{Corner, ExclusionMask, Region};
 use crate::frame::ImageView;
 use crate::q16::Point;
 use crate::ConfigError;
+use heapless::Vec;
 
 /// The memory one detection works in.
 pub(super) struct DetectBuffers<'b> {
@@ -19,7 +20,8 @@ pub(super) struct DetectBuffers<'b> {
 
 /// Finds new corners on `level_image`, pyramid level `refill.level` of a
 /// `width` x `height` frame, at least `refill.min_distance` px from every position in `live`
-/// and from each other, at most `refill.grid.per_cell` per cell counting `live`.
+/// and from each other, twice that from every position in `cooling`, at most
+/// `refill.grid.per_cell` per cell counting `live`.
 ///
 /// Returns the corners, strongest first, in full-resolution coordinates: a prefix of
 /// `buffers.candidates`.
@@ -27,7 +29,7 @@ pub(super) fn new_corners<'b>(
     refill: &Refill,
     level_image: &ImageView<'_>,
     (width, height): (usize, usize),
-    live: &[Point],
+    (live, cooling): (&[Point], &[(Point, u32)]),
     buffers: DetectBuffers<'b>,
 ) -> Result<&'b [Corner], ConfigError> {
     let level = refill.level;
@@ -36,6 +38,9 @@ pub(super) fn new_corners<'b>(
     let mut mask = ExclusionMask::new(level_image.width(), level_image.height());
     for &p in live {
         mask.exclude_around(at_level(p, level), radius);
+    }
+    for &(p, _) in cooling {
+        mask.exclude_around(at_level(p, level), radius.saturating_mul(2));
     }
     // Keep new corners far enough from the edge that most of their window sees the frame:
     // LK repeats the edge pixels beyond it, a pattern that does not move with the scene.
@@ -71,6 +76,44 @@ pub(super) fn new_corners<'b>(
     let selected = refill.grid.select(width, height, spaced, live)?;
     debug_assert!(selected <= spaced.len());
     Ok(spaced.get(..selected).unwrap_or(&[]))
+}
+
+/// Where young tracks failed a gate lately, and in which frame, oldest first: new tracks keep
+/// away from them for [`Refill::cooldown`] frames.
+#[derive(Debug)]
+pub(super) struct FailedSpots<const N: usize> {
+    spots: Vec<(Point, u32), N>,
+}
+
+impl<const N: usize> FailedSpots<N> {
+    pub(super) const fn new() -> Self {
+        Self { spots: Vec::new() }
+    }
+
+    /// The spots and their frames, oldest first.
+    pub(super) fn spots(&self) -> &[(Point, u32)] {
+        &self.spots
+    }
+
+    /// Forgets the spots marked `cooldown` frames or more before `frame`.
+    pub(super) fn expire(&mut self, frame: u32, cooldown: u16) {
+        let cooldown = u32::from(cooldown);
+        self.spots
+            .retain(|&(_, marked)| frame.wrapping_sub(marked) < cooldown);
+    }
+
+    /// Marks `at`, where a young track failed in `frame`; when full, the oldest spot makes room.
+    pub(super) fn mark(&mut self, at: Point, frame: u32) {
+        if self.spots.is_full() {
+            self.spots.remove(0);
+        }
+        let pushed = self.spots.push((at, frame));
+        debug_assert!(pushed.is_ok(), "room was made");
+    }
+
+    pub(super) fn clear(&mut self) {
+        self.spots.clear();
+    }
 }
 
 /// Keeps, strongest first, the corners outside `mask`, excluding `radius` around each one kept;
@@ -126,6 +169,26 @@ mod tests {
             at_full_resolution(far, 3),
             Point::from_bits(i32::MAX, i32::MIN)
         );
+    }
+
+    #[test]
+    fn failed_spots_expire_after_the_cooldown_and_the_oldest_make_room() {
+        let mut failed = FailedSpots::<2>::new();
+        let at = |x| Point::from_f32(x, 0.0);
+        failed.mark(at(1.0), 10);
+        failed.mark(at(2.0), 11);
+        // Full: the oldest goes.
+        failed.mark(at(3.0), 12);
+        assert_eq!(failed.spots(), &[(at(2.0), 11), (at(3.0), 12)]);
+        // A cooldown of 2 frames at frame 13 keeps what was marked in frame 12 only.
+        failed.expire(13, 2);
+        assert_eq!(failed.spots(), &[(at(3.0), 12)]);
+        // Frame numbers wrap.
+        failed.mark(at(4.0), u32::MAX);
+        failed.expire(0, 2);
+        assert_eq!(failed.spots(), &[(at(4.0), u32::MAX)]);
+        failed.expire(0, 0);
+        assert!(failed.spots().is_empty());
     }
 
     #[test]

@@ -182,6 +182,8 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
             },
             border: c.border,
             min_distance: c.min_distance,
+            // The window's quotient: no cooldown, or 8-24 frames of it.
+            cooldown: u16::from(c.window / 70) * 8,
         },
         // More quotients: relocation every 0-12 frames from age 0-12, limits of 0-6 px in
         // quarters, and NaN at the top.

@@ -92,12 +92,16 @@ pub struct TrackerSettings {
     /// this many frames (0 turns relocation off) [default: 16]
     #[arg(long, value_name = "F", value_parser = frames_period)]
     pub relocate_every: Option<u32>,
+    /// refill cooldown, frames: for this many frames no new track starts near where a track
+    /// failed a gate in its first four frames (0 turns it off) [default: 32]
+    #[arg(long, value_name = "F")]
+    pub refill_cooldown: Option<u16>,
 }
 
 impl TrackerSettings {
     /// `config` with every given setting in place of its own.
     pub fn apply(&self, config: TrackerConfig) -> TrackerConfig {
-        let (gates, relocation) = (config.gates, config.relocation);
+        let (gates, relocation, refill) = (config.gates, config.relocation, config.refill);
         TrackerConfig {
             lk: self.lk.apply(config.lk),
             gates: Gates {
@@ -111,6 +115,10 @@ impl TrackerSettings {
                 max_distance: self.max_relocation.unwrap_or(relocation.max_distance),
                 every: self.relocate_every.unwrap_or(relocation.every),
                 ..relocation
+            },
+            refill: Refill {
+                cooldown: self.refill_cooldown.unwrap_or(refill.cooldown),
+                ..refill
             },
             ..config
         }

@@ -14,9 +14,10 @@ use crate::q16::Point;
 /// objects in one region are rarely that unequal.
 const SPECK_RATIO: usize = 8;
 
-/// Outlines of one candidate at most this far apart, px (the gap between their boxes), may be
-/// parts of one body: a walker's legs and arms leave a pixel or two of ground between them
-/// and the torso where their flows disagree.
+/// Outlines of one candidate at most this far apart, px (the gap between their boxes), or half
+/// the smaller one's longer side when that is more, may be parts of one body: a walker's legs
+/// and arms leave a pixel or two of ground between them and the torso where their flows
+/// disagree, and on a larger body plain clothes and blur leave gaps that grow with it.
 const PART_GAP: u16 = 4;
 
 /// Parts of one body move alike: two outlines join when their flows differ by at most this,
@@ -103,13 +104,16 @@ fn first_parts_of_one_body(parts: &Parts) -> Option<(usize, usize)> {
     })
 }
 
-/// True when `a` and `b` lie within [`PART_GAP`] of each other and move alike.
+/// True when `a` and `b` lie within [`PART_GAP`] of each other, or half the smaller one's
+/// longer side, and move alike.
 fn one_body(a: &MotionBox, b: &MotionBox) -> bool {
     let gap = |a0: u16, a_len: u16, b0: u16, b_len: u16| {
         let (a1, b1) = (a0.saturating_add(a_len), b0.saturating_add(b_len));
         b0.saturating_sub(a1).max(a0.saturating_sub(b1))
     };
-    let near = gap(a.x, a.w, b.x, b.w).max(gap(a.y, a.h, b.y, b.h)) <= PART_GAP;
+    let side = |m: &MotionBox| m.w.max(m.h);
+    let reach = PART_GAP.max(side(a).min(side(b)) / 2);
+    let near = gap(a.x, a.w, b.x, b.w).max(gap(a.y, a.h, b.y, b.h)) <= reach;
     near && moves_alike(a.mean_flow, b.mean_flow)
 }
 
@@ -238,9 +242,18 @@ mod tests {
         let mut parts = Parts::from_slice(&[torso, other]).unwrap();
         join_parts(&mut parts);
         assert_eq!(parts.len(), 2);
-        // Alike, but 5 px apart: two boxes.
-        let apart = part(55, 20, 10, 16, (2.0, 0.0));
+        // Alike, 8 px apart: half the smaller one's 16 px side, joined; 9 px: two boxes.
+        let near = part(58, 20, 10, 16, (2.0, 0.0));
+        let mut parts = Parts::from_slice(&[torso, near]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.as_slice(), [part(40, 20, 28, 16, (2.0, 0.0))]);
+        let apart = part(59, 20, 10, 16, (2.0, 0.0));
         let mut parts = Parts::from_slice(&[torso, apart]).unwrap();
+        join_parts(&mut parts);
+        assert_eq!(parts.len(), 2);
+        // Small parts reach 4 px at least: a 6 px hand 5 px from the torso stays apart.
+        let hand = part(55, 24, 6, 6, (2.0, 0.0));
+        let mut parts = Parts::from_slice(&[torso, hand]).unwrap();
         join_parts(&mut parts);
         assert_eq!(parts.len(), 2);
         // Slow parts differ by up to a pixel (the outline's own flow step): joined.

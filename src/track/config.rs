@@ -304,7 +304,11 @@ pub struct Gates {
     /// median residual of the frame's tracks (taken as at least one grey level) is dropped.
     /// The median measures what noise, blur and interpolation cost every track in this frame,
     /// so the gate follows the camera: an occluder edge entering a window stands out from it
-    /// before it reaches [`Gates::max_residual`]. A number >= 0; infinity turns it off.
+    /// before it reaches [`Gates::max_residual`]. Tracks whose step goes more than 1 px from
+    /// the frame's median step (on movers, before a still or steadily moving background) are
+    /// also judged against their own median when at least five are, and held to the larger
+    /// limit: a walker's body bends and blurs, and its tracks' residuals are not the ground's.
+    /// A number >= 0; infinity turns it off.
     pub residual_ratio: f32,
     /// Appearance gate: a track whose neighbourhood (7 x 7 samples, 2 px apart) correlates
     /// less than this with its neighbourhood in its first frame is dropped (zero-mean

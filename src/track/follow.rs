@@ -72,7 +72,7 @@ impl Follow<'_, '_> {
     ) -> Result<(), LkError> {
         // Forwards first, for every track: the residual gate needs the frame's median.
         let forward = self.forward_all::<N>(tracks, scratch)?;
-        let max_residual = self.residual_limit::<N>(&forward);
+        let limits = self.residual_limits::<N>(tracks, &forward);
         // The birth patches turn and zoom with the image, so that a camera that yaws or climbs
         // does not make good tracks look unlike their features.
         let steps = tracks.iter().zip(forward.iter());
@@ -104,7 +104,6 @@ impl Follow<'_, '_> {
         // patches, turned with the image, judge the tracks besides.
         let fast = turn.is_fast();
         let widen = if fast { 2 } else { 1 };
-        let max_residual = max_residual.map(|max| max.saturating_mul_int(widen));
 
         let mut kept = 0;
         for i in 0..tracks.len() {
@@ -113,6 +112,9 @@ impl Follow<'_, '_> {
             else {
                 break;
             };
+            let max_residual = limits
+                .of_step(&track, &fwd.step)
+                .map(|max| max.saturating_mul_int(widen));
             let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
             if let Err(rejection) = verdict {
                 if rejection != Rejection::OutOfFrame && track.age < FAILED_YOUNG {
@@ -292,22 +294,22 @@ impl Follow<'_, '_> {
         })
     }
 
-    /// The residual gate of this frame: the absolute limit, or the ratio times the median
-    /// residual of the tracked steps (at least one grey level) when that is lower.
-    fn residual_limit<const N: usize>(&self, steps: &[Forward]) -> Option<Q16> {
-        let relative = self.checked.residual_ratio.and_then(|ratio| {
-            let mut residuals: Vec<i32, N> = steps
-                .iter()
-                .filter(|s| s.step.is_tracked())
-                .map(|s| s.step.residual.to_bits())
-                .collect();
-            let median = Q16::from_bits(median(&mut residuals)?);
-            Some(ratio.saturating_mul(median.max(Q16::ONE)))
-        });
-        match (self.checked.max_residual, relative) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+    /// The residual gates of this frame (see [`ResidualLimits`]).
+    fn residual_limits<const N: usize>(
+        &self,
+        tracks: &[Track],
+        steps: &[Forward],
+    ) -> ResidualLimits {
+        let tracked = tracks
+            .iter()
+            .zip(steps)
+            .filter(|(_, f)| f.step.is_tracked())
+            .map(|(t, f)| (displacement(t, &f.step), f.step.residual));
+        ResidualLimits::of::<N>(
+            self.checked.max_residual,
+            self.checked.residual_ratio,
+            tracked,
+        )
     }
 
     /// Whether `track`, whose forward step is `fwd`, passes every gate, and if so its position
@@ -423,6 +425,82 @@ impl Follow<'_, '_> {
     }
 }
 
+/// How much farther than the frame's median step, px (squared, in squared Q16 units), a step
+/// goes for its track to be judged among the movers: 1 px.
+const MOVER_STEP_SQ: i64 = 1 << 32;
+
+/// The residual gates of one frame: the absolute limit ([`super::Gates::max_residual`]), or
+/// the ratio ([`super::Gates::residual_ratio`]) times the median residual of the tracked steps
+/// (at least one grey level) when that is lower.
+///
+/// The median stands for what noise, blur and interpolation cost a correct track in this
+/// frame, and it is the median of the scene most tracks are on. A still camera over a street
+/// has most of its tracks on the still ground, whose residual is the sensor's noise alone; a
+/// track on a walker has a residual of its own (the body bends, its edges blur) and would be
+/// judged against the ground's. So the steps that go more than 1 px from the frame's median
+/// step (the movers') get their own median, when there are at least five of them, and a
+/// mover is held to the larger of the two limits. A track an occluder drags is judged so too,
+/// but what stops it is the jump of its residual as the occluder's edge enters its window, far
+/// above either median, and its birth patch, which no longer matches
+/// (tests/track.rs: rigid occluders and walkers alike).
+#[derive(Debug, Clone, Copy)]
+struct ResidualLimits {
+    /// The limit of the frame's tracks; `None` when both gates are off.
+    frame: Option<Q16>,
+    /// The frame's median step and the limit of the steps that go more than 1 px from it, when
+    /// enough do.
+    movers: Option<(Point, Q16)>,
+}
+
+impl ResidualLimits {
+    /// The limits of the tracked steps `steps` (each track's displacement and residual), with
+    /// the absolute limit `max` and the relative `ratio`.
+    fn of<const N: usize>(
+        max: Option<Q16>,
+        ratio: Option<Q16>,
+        steps: impl Iterator<Item = (Point, Q16)> + Clone,
+    ) -> Self {
+        let relative = |residuals: &mut [i32]| {
+            let median = Q16::from_bits(median(residuals)?);
+            let limit = ratio?.saturating_mul(median.max(Q16::ONE));
+            Some(max.map_or(limit, |max| max.min(limit)))
+        };
+        let mut all: Vec<i32, N> = steps.clone().map(|(_, r)| r.to_bits()).collect();
+        let frame = relative(&mut all).or(max);
+        let movers = ratio.and_then(|_| {
+            let mut motion = FrameMotion::<N>::default();
+            steps.clone().for_each(|(d, _)| motion.push(d));
+            let centre = motion.median()?;
+            let mut moving: Vec<i32, N> = steps
+                .filter(|&(d, _)| distance_sq(d, centre) > MOVER_STEP_SQ)
+                .map(|(_, r)| r.to_bits())
+                .collect();
+            if moving.len() < FrameMotion::<N>::ENOUGH {
+                return None;
+            }
+            Some((centre, relative(&mut moving)?))
+        });
+        Self { frame, movers }
+    }
+
+    /// The limit of `track`, stepped by `step`.
+    fn of_step(&self, track: &Track, step: &PointTrack) -> Option<Q16> {
+        match self.movers {
+            Some((centre, limit))
+                if distance_sq(displacement(track, step), centre) > MOVER_STEP_SQ =>
+            {
+                self.frame.map(|frame| frame.max(limit))
+            }
+            _ => self.frame,
+        }
+    }
+}
+
+/// How far `step` moves `track`.
+fn displacement(track: &Track, step: &PointTrack) -> Point {
+    offset(step.position, Point::default(), track.position)
+}
+
 /// The displacements of the steps tracked so far in a frame, whose median stands for the
 /// frame's motion.
 struct FrameMotion<const N: usize> {
@@ -445,14 +523,17 @@ impl<const N: usize> FrameMotion<N> {
 
     fn add(&mut self, track: &Track, step: &Forward) {
         if step.step.is_tracked() {
-            let d = offset(step.step.position, Point::default(), track.position);
-            // Both hold at most N, one entry per track.
-            let pushed = (self.dx.push(d.x.to_bits()), self.dy.push(d.y.to_bits()));
-            debug_assert!(
-                pushed.0.is_ok() && pushed.1.is_ok(),
-                "more tracks than the tracker's capacity"
-            );
+            self.push(displacement(track, &step.step));
         }
+    }
+
+    fn push(&mut self, d: Point) {
+        // Both hold at most N, one entry per track.
+        let pushed = (self.dx.push(d.x.to_bits()), self.dy.push(d.y.to_bits()));
+        debug_assert!(
+            pushed.0.is_ok() && pushed.1.is_ok(),
+            "more tracks than the tracker's capacity"
+        );
     }
 
     /// The median displacement, once [`Self::ENOUGH`] steps are in.
@@ -524,5 +605,40 @@ mod tests {
         let other = Point::from_bits(i32::MAX, i32::MAX);
         assert_eq!(distance_sq(corner, other), i64::MAX);
         assert_eq!(distance_sq(p, Point::from_f32(13.0, 14.0)), 25 << 32);
+    }
+
+    /// A still ground's steps (residual 1 grey level) and `movers` walkers' steps of 3 px
+    /// (residual 4: bodies bend and blur).
+    fn street(movers: usize) -> Vec<(Point, Q16), 32> {
+        let ground = (Point::default(), Q16::ONE);
+        let walker = (Point::from_f32(3.0, 0.0), Q16::from_num(4));
+        let ground = core::iter::repeat_n(ground, 20);
+        ground.chain(core::iter::repeat_n(walker, movers)).collect()
+    }
+
+    #[test]
+    fn movers_are_judged_against_the_movers_residual() {
+        let (max, ratio) = (Some(Q16::from_num(12)), Some(Q16::from_num(3)));
+        let steps = street(6);
+        let limits = ResidualLimits::of::<32>(max, ratio, steps.iter().copied());
+        let track = Track::default();
+        let step = |x: f32| PointTrack {
+            position: Point::from_f32(x, 0.0),
+            ..PointTrack::default()
+        };
+        // The ground's tracks: 3 times its median of 1 grey level.
+        assert_eq!(limits.of_step(&track, &step(0.0)), Some(Q16::from_num(3)));
+        assert_eq!(limits.of_step(&track, &step(0.9)), Some(Q16::from_num(3)));
+        // A walker's: 3 times the walkers' median of 4, within the absolute 12.
+        assert_eq!(limits.of_step(&track, &step(3.0)), Some(Q16::from_num(12)));
+        // Four movers are too few for a median of their own.
+        let few = street(4);
+        let limits = ResidualLimits::of::<32>(max, ratio, few.iter().copied());
+        assert_eq!(limits.of_step(&track, &step(3.0)), Some(Q16::from_num(3)));
+        // Without the relative gate, the absolute limit alone; with neither, none.
+        let absolute = ResidualLimits::of::<32>(max, None, steps.iter().copied());
+        assert_eq!(absolute.of_step(&track, &step(3.0)), max);
+        let open = ResidualLimits::of::<32>(None, None, steps.iter().copied());
+        assert_eq!(open.of_step(&track, &step(3.0)), None);
     }
 }

@@ -385,7 +385,15 @@ impl Follow<'_, '_> {
         } else {
             relocate.from_age
         };
-        let regular = on_schedule(from_age, relocate.every);
+        // A turned patch carries an error of its own (the frame's turn is the image's only on
+        // average), which each relocation brings into the track: on a turned image tracks are
+        // relocated half as often.
+        let every = if turned {
+            relocate.every.saturating_mul(2)
+        } else {
+            relocate.every
+        };
+        let regular = on_schedule(from_age, every);
         // LK drifts faster on an image that turns or zooms fast: its tracks are brought back
         // onto their features sooner and more often.
         let quick = fast && turned && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE);

@@ -89,7 +89,8 @@ pub struct TrackerSettings {
     #[arg(long, value_name = "PX", value_parser = non_negative)]
     pub max_relocation: Option<f32>,
     /// relocation period, frames: each track is moved back onto its birth patch once in
-    /// this many frames (0 turns relocation off) [default: 16]
+    /// this many frames, twice as many once its image has turned (0 turns relocation off)
+    /// [default: 8; 16 with the flow-sensor preset]
     #[arg(long, value_name = "F", value_parser = frames_period)]
     pub relocate_every: Option<u32>,
     /// refill cooldown, frames: for this many frames no new track starts near where a track

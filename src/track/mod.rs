@@ -9,14 +9,15 @@
 //!    of the others'), on the finest pyramid level its last prediction error calls for
 //!    ([`Search::fine_reach`]), again on the whole pyramid when that search fails;
 //! 3. drops a track that LK lost, whose residual stands out (above
-//!    [`Gates::max_residual`], or [`Gates::residual_ratio`] times the frame's
-//!    median), that no longer looks like the feature it was born on
-//!    ([`Gates::min_correlation`]), or whose way back misses its start by more than
-//!    [`Gates::fb_threshold`]: the cheap gates first, the backward LK last, run on
-//!    every track once in [`Gates::fb_every`] frames and on every doubtful step;
-//!    every [`Relocation::every`] frames, a track that is old enough is first moved
-//!    to where its birth appearance matches best nearby, undoing LK's slow drift, or dropped
-//!    when that is farther than [`Relocation::max_distance`];
+//!    [`Gates::max_residual`], or [`Gates::residual_ratio`] times the frame's median, or
+//!    the movers' median for a track on a mover), that no longer looks like the feature it
+//!    was born on ([`Gates::min_correlation`]), or whose way back misses its start by more
+//!    than [`Gates::fb_threshold`]: the cheap gates first, the backward LK last, run on
+//!    every track once in [`Gates::fb_every`] frames and on every doubtful step; every
+//!    [`Relocation::every`] frames (twice as many once its image has turned), a track that
+//!    is old enough is first moved to where its birth appearance matches best nearby,
+//!    undoing LK's slow drift, or dropped when that is farther than
+//!    [`Relocation::max_distance`];
 //! 4. when fewer than [`Refill::below`] tracks are left, detects corners on
 //!    pyramid level [`Refill::level`] away from the live tracks, spreads them
 //!    with a [`Grid`](crate::detect::Grid), and starts new tracks up to

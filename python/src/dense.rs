@@ -326,8 +326,9 @@ fn motion_result(
 /// The library's moving-object detector over a sequence (host-sim's motion pipeline): grid
 /// flow between consecutive frames, the camera's dominant motion fitted to it, the nodes that
 /// move otherwise as a cleaned mask, its connected regions outlined at pixel level into
-/// object boxes, and only the boxes whose objects moved in `persist_pairs` consecutive pairs
-/// reported.
+/// object boxes, only the boxes whose objects moved in `persist_pairs` consecutive pairs
+/// reported, and those that are parts of one body (within 4 px, moving alike against the
+/// camera) joined into one.
 ///
 /// MotionDetector(width=None, height=None, *, cell=8, persist_pairs=2, outline=True)
 ///

@@ -19,6 +19,8 @@
 //! 6. [`Outliner`]: each region outlined at pixel level, one box per object it holds (none
 //!    for a region of mismeasured nodes).
 //! 7. [`BoxPersistence`]: the boxes whose objects moved in consecutive frame pairs.
+//! 8. [`join_bodies`]: the persisting boxes that are parts of one body (a walker's legs and
+//!    torso from regions of their own) joined.
 //!
 //! [`MovingObjects`] runs them in that order, one frame pair at a time: the motion detector as
 //! one type, the one the firmware and host-sim run.
@@ -82,6 +84,7 @@
     )
 )]
 mod agreement;
+mod bodies;
 mod dominant;
 mod fill;
 mod grid;
@@ -104,6 +107,7 @@ mod persist;
 mod regions;
 mod smooth;
 
+pub use bodies::{join_bodies, BODY_GAP};
 pub use dominant::{DominantFit, DominantFitParams, DominantMotion};
 pub use fill::{fill_invalid, FILL_MIN_SOURCES};
 pub use grid::{

@@ -1,5 +1,6 @@
 //! The motion detector as one type: [`MovingObjects`].
 
+use super::bodies::join_bodies;
 use super::dominant::{DominantFit, DominantFitParams, DominantMotion};
 use super::grid::{DenseFlow, DenseParams, DenseSummary, GridLayout, GridNode};
 use super::motion::{CameraMotion, MotionDetector, MotionParams, MotionSummary};
@@ -168,7 +169,7 @@ pub enum ObjectsStage {
     Regions,
     /// The regions outlined at pixel level (with an outline only).
     Outline,
-    /// The boxes that persisted.
+    /// The boxes that persisted, the parts of one body joined.
     Persist,
 }
 
@@ -178,8 +179,9 @@ pub enum ObjectsStage {
 /// ([`DenseFlow`], searched from the camera's motion when the caller knows it), the camera's
 /// motion (the caller's, fitted to the tracks, or else the grid's own dominant fit,
 /// [`DominantMotion::fit`]), the motion mask and its regions ([`MotionDetector`]), optionally
-/// each region outlined at pixel level ([`Outliner`]), and the persistence over frame pairs
-/// ([`BoxPersistence`]). The firmware, `host-sim motion` and `host-sim demo` all run this type.
+/// each region outlined at pixel level ([`Outliner`]), the persistence over frame pairs
+/// ([`BoxPersistence`]), and the persisting boxes that are parts of one body joined
+/// ([`join_bodies`]). The firmware, `host-sim motion` and `host-sim demo` all run this type.
 ///
 /// Memory: the frames' pyramids are the caller's (a tracker lends its own, so each frame's
 /// pyramid is built once), and so are the per-frame buffers ([`MovingObjectsBuffers`], each
@@ -566,6 +568,7 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
         summary.boxes = self
             .persistence
             .confirm(layout, &mut self.boxes, candidates);
+        summary.boxes = join_bodies(&mut self.boxes, summary.boxes, camera);
         self.reported = summary.boxes;
         stage_ended(ObjectsStage::Persist);
         Ok((summary, candidates))

@@ -70,6 +70,54 @@ impl MotionBox {
         w.saturating_mul(shared(self.y, self.h, other.y, other.h))
     }
 
+    /// The ground between this box and `other`, px: the larger of the gaps between their
+    /// column spans and between their row spans (0 when they touch or overlap).
+    ///
+    /// ```
+    /// # use kestrel::dense::MotionBox;
+    /// let a = MotionBox { x: 0, y: 0, w: 8, h: 8, ..MotionBox::default() };
+    /// assert_eq!(a.gap_to(&MotionBox { x: 11, y: 2, w: 4, h: 4, ..a }), 3);
+    /// assert_eq!(a.gap_to(&MotionBox { x: 4, y: 14, ..a }), 6);
+    /// assert_eq!(a.gap_to(&MotionBox { x: 4, y: 4, ..a }), 0);
+    /// ```
+    pub fn gap_to(&self, other: &MotionBox) -> u16 {
+        let gap = |a: u16, a_len: u16, b: u16, b_len: u16| {
+            let (a_end, b_end) = (a.saturating_add(a_len), b.saturating_add(b_len));
+            b.saturating_sub(a_end).max(a.saturating_sub(b_end))
+        };
+        gap(self.x, self.w, other.x, other.w).max(gap(self.y, self.h, other.y, other.h))
+    }
+
+    /// The box around this one and `other`, with this one's nodes and flow.
+    ///
+    /// ```
+    /// # use kestrel::dense::MotionBox;
+    /// # use kestrel::Point;
+    /// let torso = MotionBox { x: 40, y: 20, w: 10, h: 16, nodes: 5, mean_flow: Point::from_f32(2.0, 0.0) };
+    /// let leg = MotionBox { x: 38, y: 36, w: 6, h: 12, nodes: 2, mean_flow: Point::from_f32(4.0, 0.0) };
+    /// let body = torso.union(&leg);
+    /// assert_eq!((body.x, body.y, body.w, body.h), (38, 20, 12, 28));
+    /// assert_eq!((body.nodes, body.mean_flow), (5, torso.mean_flow));
+    /// ```
+    pub fn union(&self, other: &MotionBox) -> MotionBox {
+        let (x0, y0) = (self.x.min(other.x), self.y.min(other.y));
+        let x1 = self
+            .x
+            .saturating_add(self.w)
+            .max(other.x.saturating_add(other.w));
+        let y1 = self
+            .y
+            .saturating_add(self.h)
+            .max(other.y.saturating_add(other.h));
+        MotionBox {
+            x: x0,
+            y: y0,
+            w: x1.saturating_sub(x0),
+            h: y1.saturating_sub(y0),
+            ..*self
+        }
+    }
+
     /// The box moved by its mean flow (rounded to whole pixels) and clipped to a `width` x
     /// `height` frame: where the region is in the next frame.
     ///

@@ -89,7 +89,7 @@ fn join_parts(parts: &mut Parts) {
         // `i < j < len`, as found.
         let b = parts.remove(j);
         if let Some(a) = parts.get_mut(i) {
-            *a = union(a, &b);
+            *a = a.union(&b);
         }
     }
 }
@@ -107,14 +107,9 @@ fn first_parts_of_one_body(parts: &Parts) -> Option<(usize, usize)> {
 /// True when `a` and `b` lie within [`PART_GAP`] of each other, or half the smaller one's
 /// longer side, and move alike.
 fn one_body(a: &MotionBox, b: &MotionBox) -> bool {
-    let gap = |a0: u16, a_len: u16, b0: u16, b_len: u16| {
-        let (a1, b1) = (a0.saturating_add(a_len), b0.saturating_add(b_len));
-        b0.saturating_sub(a1).max(a0.saturating_sub(b1))
-    };
     let side = |m: &MotionBox| m.w.max(m.h);
     let reach = PART_GAP.max(side(a).min(side(b)) / 2);
-    let near = gap(a.x, a.w, b.x, b.w).max(gap(a.y, a.h, b.y, b.h)) <= reach;
-    near && moves_alike(a.mean_flow, b.mean_flow)
+    a.gap_to(b) <= reach && moves_alike(a.mean_flow, b.mean_flow)
 }
 
 /// True when flows `a` and `b` differ by at most [`PART_FLOW`] or half the faster one.
@@ -125,20 +120,6 @@ fn moves_alike(a: Point, b: Point) -> bool {
     let apart = sq(ax.saturating_sub(bx), ay.saturating_sub(by));
     let faster = sq(ax, ay).max(sq(bx, by));
     apart <= (PART_FLOW * PART_FLOW).max(faster >> PART_SHARE_SHIFT)
-}
-
-/// The box around `a` and `b`, with `a`'s nodes and flow.
-fn union(a: &MotionBox, b: &MotionBox) -> MotionBox {
-    let (x0, y0) = (a.x.min(b.x), a.y.min(b.y));
-    let x1 = a.x.saturating_add(a.w).max(b.x.saturating_add(b.w));
-    let y1 = a.y.saturating_add(a.h).max(b.y.saturating_add(b.h));
-    MotionBox {
-        x: x0,
-        y: y0,
-        w: x1 - x0,
-        h: y1 - y0,
-        ..*a
-    }
 }
 
 /// The box of `outline` in the frame, with its candidate's nodes and the flow most of its

@@ -181,8 +181,10 @@ fn run_scenario(scenario: Scenario, width: usize, height: usize, seeds: u64) -> 
 fn still_camera_finds_every_moving_object() {
     // Four objects of 10 to 40 px moving 1 to 3 px per frame, one standing still.
     let all = run_scenario(Scenario::StillCamera, 160, 120, 4);
+    // Measured (2026-12-04): 390 of 392 objects found, each in 96.4 % of its frames at
+    // least; no false box of 390.
     assert!(all.worst_object >= 0.95, "an object was missed too often");
-    assert!(all.false_share() <= 0.05, "too many false boxes");
+    assert!(all.false_share() <= 0.02, "too many false boxes");
 }
 
 #[test]
@@ -190,8 +192,9 @@ fn moving_camera_finds_small_targets() {
     // Eight targets of 10 to 25 px moving 1.5 to 3 px per frame on the ground, which the
     // camera sees panning, rolling 0.4 degrees and zooming 0.6% per frame.
     let all = run_scenario(Scenario::MovingCamera, 320, 240, 3);
-    assert!(all.recall() >= 0.9, "recall");
-    assert!(all.precision() >= 0.8, "precision");
+    // Measured (2026-12-04): recall 0.998, precision 0.995 (3 false boxes of 642).
+    assert!(all.recall() >= 0.97, "recall");
+    assert!(all.precision() >= 0.97, "precision");
 }
 
 // Three targets of 10 to 12 px at 160x120 (20 to 24 px at 320x240) moving 1.5 to 3 px per
@@ -200,18 +203,18 @@ fn moving_camera_finds_small_targets() {
 
 #[test]
 fn moving_camera_finds_targets_of_ten_pixels_at_160x120() {
-    // Measured: recall 0.958, precision 0.966 (9 false boxes of 265).
+    // Measured (2026-12-04): recall 0.996, precision 0.996 (1 false box of 269).
     let small = run_scenario(Scenario::SmallTargets, 160, 120, 4);
-    assert!(small.recall() >= 0.9, "recall at 160x120");
-    assert!(small.precision() >= 0.8, "precision at 160x120");
+    assert!(small.recall() >= 0.97, "recall at 160x120");
+    assert!(small.precision() >= 0.97, "precision at 160x120");
 }
 
 #[test]
 fn moving_camera_finds_targets_of_twenty_pixels_at_320x240() {
-    // Measured: recall 1.000, precision 0.996 (1 false box of 270).
+    // Measured (2026-12-04): recall 0.981, precision 0.989 (3 false boxes of 267).
     let large = run_scenario(Scenario::SmallTargets, 320, 240, 4);
-    assert!(large.recall() >= 0.9, "recall at 320x240");
-    assert!(large.precision() >= 0.8, "precision at 320x240");
+    assert!(large.recall() >= 0.95, "recall at 320x240");
+    assert!(large.precision() >= 0.95, "precision at 320x240");
 }
 
 /// Boxes the host-sim motion pipeline with default settings reports over `frames`, and the

@@ -12,8 +12,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use host_sim::synth::{
-    Body, CameraPath, Extent, FlightPath, FlightSequence, GliderSize, Mover, MovingObject, Scene,
-    SceneSpec, Sequence, SplitMix64, Surface, Texture,
+    CameraPath, Extent, FlightSequence, GliderSize, MovingObject, Scene, SceneSpec, Sequence,
+    SplitMix64, Surface, Texture,
 };
 use host_sim::tracking::{track_sequence, HostBuffers, TrackingFailure};
 use host_sim::Frame;
@@ -553,13 +553,7 @@ fn ground_tracks_a_walker_covers_are_dropped_not_dragged_along() {
     // rigid ones above. The ground does not move, so a ground track's truth is its birth point.
     let (width, height) = (160, 120);
     let spec = SceneSpec::new(width, height, 5).with_noise(NOISE);
-    let walker = Mover {
-        body: Body::Walker,
-        stop_go: true,
-        ..Mover::default()
-    };
-    let size = GliderSize::Sides(20.0, 32.0);
-    let sequence = FlightSequence::with_movers(spec, FlightPath::Still, 6, size, walker);
+    let sequence = FlightSequence::still_walkers(spec, 6, GliderSize::Sides(20.0, 32.0));
     let frames: Vec<Frame> = (0..FRAMES).map(|k| sequence.frame(k)).collect();
 
     let gated = under_walkers(

@@ -148,8 +148,8 @@ pub struct ObjectsStep {
     /// The grid's own fit of the camera's motion, when the caller gave none.
     pub fit: Option<DominantFit>,
     /// The mask's moving nodes and regions; `boxes` counts the boxes reported, after the
-    /// persistence ([`MovingObjects::boxes`]). All zero when the caller's camera motion was
-    /// unknown.
+    /// persistence and the join of one body's parts ([`MovingObjects::boxes`]). All zero when
+    /// the caller's camera motion was unknown.
     pub summary: MotionSummary,
     /// The pair's boxes before the persistence: the outlines of its regions (a region may give
     /// several, or none) and of the boxes expected from the pair before, or the regions' own

@@ -93,8 +93,9 @@ impl MotionBox {
     /// ```
     /// # use kestrel::dense::MotionBox;
     /// # use kestrel::Point;
-    /// let torso = MotionBox { x: 40, y: 20, w: 10, h: 16, nodes: 5, mean_flow: Point::from_f32(2.0, 0.0) };
-    /// let leg = MotionBox { x: 38, y: 36, w: 6, h: 12, nodes: 2, mean_flow: Point::from_f32(4.0, 0.0) };
+    /// let flow = |x| Point::from_f32(x, 0.0);
+    /// let torso = MotionBox { x: 40, y: 20, w: 10, h: 16, nodes: 5, mean_flow: flow(2.0) };
+    /// let leg = MotionBox { x: 38, y: 36, w: 6, h: 12, nodes: 2, mean_flow: flow(4.0) };
     /// let body = torso.union(&leg);
     /// assert_eq!((body.x, body.y, body.w, body.h), (38, 20, 12, 28));
     /// assert_eq!((body.nodes, body.mean_flow), (5, torso.mean_flow));

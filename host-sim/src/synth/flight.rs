@@ -13,7 +13,7 @@
 //! centre, a 60 degree horizontal field of view.
 
 use super::camera::{Camera, Shot, Subject};
-use super::glider::{Glider, GliderSize, Mover};
+use super::glider::{Body, Glider, GliderSize, Mover};
 use super::homography::Homography;
 use super::photo::Photo;
 use super::rng::SplitMix64;
@@ -306,6 +306,26 @@ impl FlightSequence {
             objects,
             camera: Camera::default(),
         }
+    }
+
+    /// A still camera over `spec`'s ground where `walkers` walkers of `size` cross, legs and
+    /// arms swinging, stopping and starting: occluders and movers that bend, for the tests of
+    /// the tracker and of the motion detector alike.
+    ///
+    /// ```
+    /// use host_sim::synth::{Body, FlightSequence, GliderSize, SceneSpec};
+    /// let spec = SceneSpec::new(160, 120, 5);
+    /// let street = FlightSequence::still_walkers(spec, 6, GliderSize::Sides(20.0, 32.0));
+    /// assert_eq!(street.objects().len(), 6);
+    /// assert!(street.objects().iter().all(|w| w.kind().body == Body::Walker && w.kind().stop_go));
+    /// ```
+    pub fn still_walkers(spec: SceneSpec, walkers: usize, size: GliderSize) -> Self {
+        let walker = Mover {
+            body: Body::Walker,
+            stop_go: true,
+            ..Mover::default()
+        };
+        Self::with_movers(spec, FlightPath::Still, walkers, size, walker)
     }
 
     /// The same flight filmed by `camera` (the ideal [`Camera::default`] otherwise).

@@ -113,7 +113,7 @@ fn one_body(a: &MotionBox, b: &MotionBox) -> bool {
 }
 
 /// True when flows `a` and `b` differ by at most [`PART_FLOW`] or half the faster one.
-fn moves_alike(a: Point, b: Point) -> bool {
+pub(in crate::dense) fn moves_alike(a: Point, b: Point) -> bool {
     let sq = |x: i64, y: i64| x.saturating_mul(x).saturating_add(y.saturating_mul(y));
     let bits = |p: Point| (i64::from(p.x.to_bits()), i64::from(p.y.to_bits()));
     let ((ax, ay), (bx, by)) = (bits(a), bits(b));

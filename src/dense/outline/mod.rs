@@ -15,6 +15,8 @@ mod flows;
 mod scratch;
 
 pub use scratch::outline_scratch_len;
+// What makes two parts one body, shared with the join of the reported boxes.
+pub(super) use boxes::moves_alike;
 
 use super::grid::{GridLayout, GridNode};
 use super::motion::CameraMotion;

@@ -43,7 +43,9 @@ them better than the camera's, and connected pixels of one motion make one box (
 one region get two; a region of mismeasured nodes gets none). A box is reported once its
 object has moved in two consecutive frame pairs (--persist): a region that moves in one pair
 alone (a wrong match, a patch clipped by an exposure jump) gives no box, and an object's first
-pair gives none either.",
+pair gives none either. Reported boxes within 4 px of each other whose motions against the
+camera differ by at most a pixel or half the faster one's are parts of one body (a walker's
+legs and torso) and are joined into one box.",
     after_help = "boxes.csv columns:
   frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
              more)

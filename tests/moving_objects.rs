@@ -129,24 +129,46 @@ fn run_frames<const OUTLINE: bool>(
     found
 }
 
+/// Objects asked for and found, boxes and false boxes, over frames.
+#[derive(Default)]
+struct Tally {
+    asked: usize,
+    hits: usize,
+    boxes: usize,
+    false_boxes: usize,
+}
+
+impl Tally {
+    /// Adds one frame: `found` matched to `truth` at IoU 0.3, each object and box at most once,
+    /// best overlaps first.
+    fn add(&mut self, truth: &[BoxPx], found: &[BoxPx]) {
+        let (truth_hit, box_hit) = match_boxes(truth, found, 0.3);
+        self.asked += truth.len();
+        self.hits += truth_hit.iter().filter(|&&h| h).count();
+        self.boxes += found.len();
+        self.false_boxes += box_hit.iter().filter(|&&h| !h).count();
+    }
+}
+
+/// Whether at least half of `b` is in the frame: an object less visible is not asked for.
+fn half_in_view(b: &BoxPx) -> bool {
+    b.clip(W, H).area() >= 0.5 * b.area()
+}
+
 /// (objects asked for, found, boxes, false boxes) at IoU 0.3, from frame 2 on (a box needs two
-/// pairs); each object and box matched at most once, best overlaps first.
+/// pairs).
 fn score(sequence: &ObjectSequence, found: &[Vec<MotionBox>]) -> (usize, usize, usize, usize) {
-    let (mut asked, mut hits, mut boxes, mut false_boxes) = (0, 0, 0, 0);
+    let mut tally = Tally::default();
     for (k, found) in (1..).zip(found) {
         let truth: Vec<BoxPx> = sequence
             .boxes(k)
             .into_iter()
-            .filter(|b| k >= 2 && b.clip(W, H).area() >= 0.5 * b.area())
+            .filter(|b| k >= 2 && half_in_view(b))
             .collect();
         let found: Vec<BoxPx> = found.iter().map(BoxPx::from).collect();
-        let (truth_hit, box_hit) = match_boxes(&truth, &found, 0.3);
-        asked += truth.len();
-        hits += truth_hit.iter().filter(|&&h| h).count();
-        boxes += found.len();
-        false_boxes += box_hit.iter().filter(|&&h| !h).count();
+        tally.add(&truth, &found);
     }
-    (asked, hits, boxes, false_boxes)
+    (tally.asked, tally.hits, tally.boxes, tally.false_boxes)
 }
 
 #[test]
@@ -254,14 +276,13 @@ fn a_walker_comes_in_one_box_not_in_its_parts() {
 
     // Walkers that move, from frame 2 on (a box needs two pairs), at least half in view; boxes
     // on walkers that stand are neither hits nor false.
-    let (mut asked, mut hits, mut boxes, mut false_boxes) = (0, 0, 0, 0);
+    let mut tally = Tally::default();
     let (mut covered, mut parts) = (0, 0);
     for (k, found) in (1..).zip(&found) {
         let walkers = walkers_at(&sequence, k);
-        let in_view = |b: &BoxPx| b.clip(W, H).area() >= 0.5 * b.area();
         let moving: Vec<BoxPx> = walkers
             .iter()
-            .filter(|(b, moved)| *moved && k >= 2 && in_view(b))
+            .filter(|(b, moved)| *moved && k >= 2 && half_in_view(b))
             .map(|(b, _)| *b)
             .collect();
         let standing: Vec<BoxPx> = walkers
@@ -274,11 +295,7 @@ fn a_walker_comes_in_one_box_not_in_its_parts() {
             .map(BoxPx::from)
             .filter(|b| standing.iter().all(|s| b.iou(s) < 0.3))
             .collect();
-        let (walker_hit, box_hit) = match_boxes(&moving, &found, 0.3);
-        asked += moving.len();
-        hits += walker_hit.iter().filter(|&&h| h).count();
-        boxes += found.len();
-        false_boxes += box_hit.iter().filter(|&&h| !h).count();
+        tally.add(&moving, &found);
         for w in &moving {
             let centred = found.iter().filter(|b| centred_in(b, w)).count();
             if centred > 0 {
@@ -287,6 +304,12 @@ fn a_walker_comes_in_one_box_not_in_its_parts() {
             }
         }
     }
+    let Tally {
+        asked,
+        hits,
+        boxes,
+        false_boxes,
+    } = tally;
     let recall = hits as f64 / asked as f64;
     let precision = (boxes - false_boxes) as f64 / boxes as f64;
     let parts_per_walker = parts as f64 / covered as f64;

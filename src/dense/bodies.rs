@@ -51,17 +51,36 @@ pub const BODY_GAP: u16 = 4;
 /// assert_eq!(boxes[1], cyclist);
 /// ```
 pub fn join_bodies(boxes: &mut [MotionBox], count: usize, camera: &impl CameraMotion) -> usize {
+    let one_body = |a: &MotionBox, b: &MotionBox| {
+        a.gap_to(b) <= BODY_GAP && moves_alike(against_camera(a, camera), against_camera(b, camera))
+    };
+    let larger_first = |a: &MotionBox, b: &MotionBox| {
+        if a.area() >= b.area() {
+            a.union(b)
+        } else {
+            b.union(a)
+        }
+    };
+    join_pairs(boxes, count, one_body, larger_first)
+}
+
+/// Joins the first `count` of `boxes` two at a time, each time the first pair `i < j` that
+/// `one_body` takes for parts of one body, into `merge(i, j)` where `i` was, until no two are;
+/// returns how many boxes are left, at the front of `boxes` in their order. The outline joins
+/// the parts of one region so, and [`join_bodies`] the reported boxes.
+pub(super) fn join_pairs(
+    boxes: &mut [MotionBox],
+    count: usize,
+    one_body: impl Fn(&MotionBox, &MotionBox) -> bool,
+    merge: impl Fn(&MotionBox, &MotionBox) -> MotionBox,
+) -> usize {
     let mut count = count.min(boxes.len());
-    while let Some((i, j)) = first_parts_of_one_body(boxes.get(..count).unwrap_or(&[]), camera) {
+    while let Some((i, j)) = first_pair(boxes.get(..count).unwrap_or(&[]), &one_body) {
         debug_assert!(i < j && j < count, "a pair of the first {count} boxes");
-        let (Some(&a), Some(&b)) = (boxes.get(i), boxes.get(j)) else {
+        let (Some(a), Some(b)) = (boxes.get(i), boxes.get(j)) else {
             break;
         };
-        let body = if a.area() >= b.area() {
-            a.union(&b)
-        } else {
-            b.union(&a)
-        };
+        let body = merge(a, b);
         if let Some(slot) = boxes.get_mut(i) {
             *slot = body;
         }
@@ -71,19 +90,16 @@ pub fn join_bodies(boxes: &mut [MotionBox], count: usize, camera: &impl CameraMo
     count
 }
 
-/// The first pair `i < j` of `boxes` that are parts of one body.
-fn first_parts_of_one_body(
+/// The first pair `i < j` of `boxes` that `one_body` takes for parts of one body.
+fn first_pair(
     boxes: &[MotionBox],
-    camera: &impl CameraMotion,
+    one_body: &impl Fn(&MotionBox, &MotionBox) -> bool,
 ) -> Option<(usize, usize)> {
     boxes.iter().enumerate().find_map(|(i, a)| {
         let rest = boxes.iter().enumerate().skip(i.saturating_add(1));
-        rest.filter(|(_, b)| {
-            a.gap_to(b) <= BODY_GAP
-                && moves_alike(against_camera(a, camera), against_camera(b, camera))
-        })
-        .map(|(j, _)| (i, j))
-        .next()
+        rest.filter(|(_, b)| one_body(a, b))
+            .map(|(j, _)| (i, j))
+            .next()
     })
 }
 

@@ -6,6 +6,7 @@ use super::flood::{flood, Outline, VISITED};
 use super::flows::Flows;
 use super::scratch::OutlineScratch;
 use super::Outliner;
+use crate::dense::bodies::join_pairs;
 use crate::dense::regions::MotionBox;
 use crate::q16::Point;
 
@@ -85,23 +86,9 @@ type Parts = heapless::Vec<MotionBox, 16>;
 /// Joins the outlines that are parts of one body ([`PART_GAP`], [`PART_FLOW`]) into one box,
 /// with the flow of the larger (earlier) one, until no two are.
 fn join_parts(parts: &mut Parts) {
-    while let Some((i, j)) = first_parts_of_one_body(parts) {
-        // `i < j < len`, as found.
-        let b = parts.remove(j);
-        if let Some(a) = parts.get_mut(i) {
-            *a = a.union(&b);
-        }
-    }
-}
-
-/// The first pair `i < j` of `parts` that are parts of one body.
-fn first_parts_of_one_body(parts: &Parts) -> Option<(usize, usize)> {
-    parts.iter().enumerate().find_map(|(i, a)| {
-        let rest = parts.iter().enumerate().skip(i + 1);
-        rest.filter(|(_, b)| one_body(a, b))
-            .map(|(j, _)| (i, j))
-            .next()
-    })
+    let count = parts.len();
+    let left = join_pairs(parts, count, one_body, MotionBox::union);
+    parts.truncate(left);
 }
 
 /// True when `a` and `b` lie within [`PART_GAP`] of each other, or half the smaller one's

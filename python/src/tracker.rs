@@ -154,6 +154,9 @@ pub struct FrameReport {
     tracked: usize,
     /// Tracks started on this frame.
     added: usize,
+    /// Corners not started on this frame: their step from the frame before already failed
+    /// the residual gate, as their track would have on its first step.
+    refused: usize,
     /// True when corners were detected on this frame.
     detected: bool,
     /// Tracks dropped on this frame, all reasons.
@@ -181,6 +184,7 @@ impl FrameReport {
             live: r.live,
             tracked: r.tracked,
             added: r.added,
+            refused: r.refused,
             detected: r.detected,
             dropped: r.dropped(),
             dropped_fb: r.dropped_fb,
@@ -203,6 +207,7 @@ impl FrameReport {
         d.set_item("live", self.live)?;
         d.set_item("tracked", self.tracked)?;
         d.set_item("added", self.added)?;
+        d.set_item("refused", self.refused)?;
         d.set_item("detected", self.detected)?;
         d.set_item("dropped", self.dropped)?;
         d.set_item("dropped_fb", self.dropped_fb)?;
@@ -217,12 +222,13 @@ impl FrameReport {
 
     fn __repr__(&self) -> String {
         format!(
-            "FrameReport(frame={}, live={}, tracked={}, added={}, dropped={} (fb {}, residual {}, \
-             appearance {}, relocation {}, out of frame {}, lost {}))",
+            "FrameReport(frame={}, live={}, tracked={}, added={}, refused={}, dropped={} (fb {}, \
+             residual {}, appearance {}, relocation {}, out of frame {}, lost {}))",
             self.frame,
             self.live,
             self.tracked,
             self.added,
+            self.refused,
             self.dropped,
             self.dropped_fb,
             self.dropped_residual,
@@ -333,6 +339,7 @@ impl Tracker {
         let t = &mut self.totals;
         t.tracked += report.tracked;
         t.added += report.added;
+        t.refused += report.refused;
         t.dropped_fb += report.dropped_fb;
         t.dropped_residual += report.dropped_residual;
         t.dropped_appearance += report.dropped_appearance;
@@ -552,8 +559,8 @@ impl Tracker {
         self.frames
     }
 
-    /// Totals over every frame processed: tracks followed and added, tracks that ended, and
-    /// drops by gate.
+    /// Totals over every frame processed: tracks followed and added, corners refused at
+    /// birth, tracks that ended, and drops by gate.
     #[getter]
     fn totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let t = &self.totals;
@@ -561,6 +568,7 @@ impl Tracker {
         d.set_item("frames", self.frames)?;
         d.set_item("tracked", t.tracked)?;
         d.set_item("added", t.added)?;
+        d.set_item("refused", t.refused)?;
         d.set_item("ended", self.ended)?;
         d.set_item("dropped", t.dropped())?;
         d.set_item("dropped_fb", t.dropped_fb)?;

@@ -4,6 +4,7 @@ use super::anchor::{Anchor, Located};
 use super::config::{Checked, Relocate, FAILED_YOUNG};
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
+use crate::frame::ImageView;
 use crate::lk::{inside, LkError, PointTrack, TrackStatus};
 use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
@@ -69,7 +70,7 @@ impl Follow<'_, '_> {
         scratch: &mut [i16],
         report: &mut FrameReport,
         failed_young: &mut dyn FnMut(Point),
-    ) -> Result<(), LkError> {
+    ) -> Result<StepLimits, LkError> {
         // Forwards first, for every track: the residual gate needs the frame's median.
         let forward = self.forward_all::<N>(tracks, scratch)?;
         let limits = self.residual_limits::<N>(tracks, &forward);
@@ -168,7 +169,44 @@ impl Follow<'_, '_> {
         }
         tracks.truncate(kept);
         anchors.truncate(kept);
-        Ok(())
+        Ok(StepLimits {
+            residual: limits,
+            widen,
+        })
+    }
+
+    /// Whether a corner at `position` in the next frame arrived there from the previous frame
+    /// as a track would have: its window, followed back into the previous frame, passes the
+    /// residual gate the frame's tracks were judged by (`limits`). The way back starts from
+    /// the caller's prediction reversed, else from the frame's median step reversed. A window
+    /// LK cannot follow back, or that reaches out of the previous frame there (a feature that
+    /// just came into view: its window was partly outside), is given the benefit of the doubt.
+    /// A corner on a feature that changes faster than a track can follow (a walker's limbs, a
+    /// face that talks) fails here as its track would on its first step.
+    pub(super) fn arrived(
+        &self,
+        position: Point,
+        limits: &StepLimits,
+        scratch: &mut [i16],
+    ) -> Result<bool, LkError> {
+        let guess = match self.predict {
+            Some(predict) => Some(offset(position, position, predict(position))),
+            None => limits
+                .frame_motion()
+                .map(|motion| offset(position, Point::default(), motion)),
+        };
+        let back = self
+            .checked
+            .lk
+            .track_point(self.next, self.prev, position, guess, scratch)?;
+        let half = self.checked.lk.params().window / 2;
+        if !back.is_tracked() || !window_inside(&self.prev.base(), back.position, half) {
+            return Ok(true);
+        }
+        let moved = offset(position, Point::default(), back.position);
+        Ok(limits
+            .of_displacement(moved)
+            .is_none_or(|max| back.residual <= max))
     }
 
     /// The forward steps of every track, in order. Tracks with a history go first; the
@@ -455,9 +493,10 @@ const MOVER_STEP_SQ: i64 = 1 << 32;
 struct ResidualLimits {
     /// The limit of the frame's tracks; `None` when both gates are off.
     frame: Option<Q16>,
-    /// The frame's median step and the limit of the steps that go more than 1 px from it, when
-    /// enough do.
-    movers: Option<(Point, Q16)>,
+    /// The frame's median step, once enough tracks stepped.
+    centre: Option<Point>,
+    /// The limit of the steps that go more than 1 px from the median step, when enough do.
+    movers: Option<Q16>,
 }
 
 impl ResidualLimits {
@@ -475,10 +514,10 @@ impl ResidualLimits {
         };
         let mut all: Vec<i32, N> = steps.clone().map(|(_, r)| r.to_bits()).collect();
         let frame = relative(&mut all).or(max);
-        let movers = ratio.and_then(|_| {
-            let mut motion = FrameMotion::<N>::default();
-            steps.clone().for_each(|(d, _)| motion.push(d));
-            let centre = motion.median()?;
+        let mut motion = FrameMotion::<N>::default();
+        steps.clone().for_each(|(d, _)| motion.push(d));
+        let centre = motion.median();
+        let movers = ratio.zip(centre).and_then(|(_, centre)| {
             let mut moving: Vec<i32, N> = steps
                 .filter(|&(d, _)| distance_sq(d, centre) > MOVER_STEP_SQ)
                 .map(|(_, r)| r.to_bits())
@@ -486,21 +525,52 @@ impl ResidualLimits {
             if moving.len() < FrameMotion::<N>::ENOUGH {
                 return None;
             }
-            Some((centre, relative(&mut moving)?))
+            relative(&mut moving)
         });
-        Self { frame, movers }
+        Self {
+            frame,
+            centre,
+            movers,
+        }
     }
 
     /// The limit of `track`, stepped by `step`.
     fn of_step(&self, track: &Track, step: &PointTrack) -> Option<Q16> {
-        match self.movers {
-            Some((centre, limit))
-                if distance_sq(displacement(track, step), centre) > MOVER_STEP_SQ =>
-            {
+        self.of_displacement(displacement(track, step))
+    }
+
+    /// The limit of a step that moves a point by `d`.
+    fn of_displacement(&self, d: Point) -> Option<Q16> {
+        match self.centre.zip(self.movers) {
+            Some((centre, limit)) if distance_sq(d, centre) > MOVER_STEP_SQ => {
                 self.frame.map(|frame| frame.max(limit))
             }
             _ => self.frame,
         }
+    }
+}
+
+/// The residual limits the frame's tracks were judged by, which a corner about to become a
+/// track is held to as well (see [`super::Refill::cooldown`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct StepLimits {
+    residual: ResidualLimits,
+    /// 2 in a frame whose image turns or zooms fast, else 1: the gate is that much wider.
+    widen: i32,
+}
+
+impl StepLimits {
+    /// The residual limit of a step that moves a point by `d`, `None` when the gates are off.
+    pub(super) fn of_displacement(&self, d: Point) -> Option<Q16> {
+        self.residual
+            .of_displacement(d)
+            .map(|max| max.saturating_mul_int(self.widen))
+    }
+
+    /// The frame's median step, where a point's search starts; `None` when too few tracks
+    /// stepped to say.
+    pub(super) fn frame_motion(&self) -> Option<Point> {
+        self.residual.centre
     }
 }
 
@@ -568,6 +638,17 @@ pub(super) fn median(values: &mut [i32]) -> Option<i32> {
     Some(m)
 }
 
+/// Whether the window of `half` px either side of `p` lies wholly inside `frame`.
+fn window_inside(frame: &ImageView<'_>, p: Point, half: usize) -> bool {
+    let within = |v: Q16, size: usize| {
+        let (low, high) = (half, size.saturating_sub(1).saturating_sub(half));
+        // Frame sides are at most MAX_DIMENSION: the shifts stay far inside i64.
+        let bits = i64::from(v.to_bits());
+        low <= high && (low as i64) << 16 <= bits && bits <= (high as i64) << 16
+    };
+    within(p.x, frame.width()) && within(p.y, frame.height())
+}
+
 /// `p + (a - b)`, saturating.
 fn offset(p: Point, a: Point, b: Point) -> Point {
     let shift = |p: Q16, a: Q16, b: Q16| p.saturating_add(a.saturating_sub(b));
@@ -597,6 +678,17 @@ pub(super) fn distance_sq(a: Point, b: Point) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn windows_inside_keep_half_a_window_from_every_edge() {
+        let pixels = [0u8; 40 * 30];
+        let frame = ImageView::packed(&pixels, 40, 30).unwrap();
+        let inside = |x: f32, y: f32| window_inside(&frame, Point::from_f32(x, y), 10);
+        assert!(inside(10.0, 10.0) && inside(29.0, 19.0));
+        assert!(!inside(9.9, 15.0) && !inside(29.1, 15.0) && !inside(20.0, 19.1));
+        // A window wider than the frame is never inside.
+        assert!(!window_inside(&frame, Point::from_f32(20.0, 15.0), 15));
+    }
 
     #[test]
     fn offsets_and_distances_saturate() {

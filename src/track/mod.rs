@@ -99,9 +99,9 @@ use anchor::Anchor;
 use buffers::StorageParts;
 use config::Checked;
 use fingerprint::Fingerprint;
-use follow::Follow;
+use follow::{Follow, StepLimits};
 use heapless::Vec;
-use refill::{DetectBuffers, FailedSpots};
+use refill::{Cooling, DetectBuffers, FailedSpots};
 
 /// One tracked feature.
 ///
@@ -203,6 +203,10 @@ pub struct FrameReport {
     pub dropped_lost: usize,
     /// New tracks started in this frame.
     pub added: usize,
+    /// Corners not started in this frame because their window, followed back into the
+    /// previous frame, failed the residual gate the frame's tracks were held to: a track there
+    /// would fail its first step (see [`Refill::cooldown`]).
+    pub refused: usize,
     /// True when detection ran in this frame.
     pub detected: bool,
 }
@@ -449,7 +453,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         self.set.clear();
         self.failed.clear();
         let mut report = FrameReport::default();
-        self.refill(frame, half, &mut report)?;
+        self.refill((frame, half), None, &mut report)?;
         Ok(self.finish_frame(&frame, half, report))
     }
 
@@ -555,7 +559,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 failed.mark(at, frame);
             }
         };
-        follow
+        let limits = follow
             .all(
                 tracks,
                 anchors,
@@ -572,7 +576,14 @@ impl<'a, const N: usize> Tracker<'a, N> {
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill.below {
-            self.refill(next, half, &mut report)?;
+            // New corners are held to this step as well when spots cool down: one that
+            // would fail its first step is such a spot already.
+            let earlier = (cooldown > 0).then_some(Earlier {
+                frame: prev,
+                limits,
+                predict,
+            });
+            self.refill((next, half), earlier, &mut report)?;
             stage_ended(TrackerStage::Refill);
         }
         let report = self.finish_frame(&next, half, report);
@@ -779,14 +790,17 @@ impl<'a, const N: usize> Tracker<'a, N> {
         }
     }
 
-    /// Detects new tracks in `frame`, whose pyramid was just built into `half` of the storage.
+    /// Detects new tracks in `frame`, whose pyramid was just built into `half` of the storage;
+    /// with `earlier`, each must have arrived from that frame as a track would have, or its
+    /// spot cools down.
     fn refill(
         &mut self,
-        frame: ImageView<'_>,
-        half: usize,
+        (frame, half): (ImageView<'_>, usize),
+        earlier: Option<Earlier<'_>>,
         report: &mut FrameReport,
     ) -> Result<(), TrackerError> {
         let set = &mut self.set;
+        let failed = &mut self.failed;
         let live: Vec<Point, N> = set.tracks.iter().map(|t| t.position).collect();
         let room = self.config.max_tracks.saturating_sub(set.tracks.len());
         let born = self.next_frame;
@@ -795,11 +809,17 @@ impl<'a, const N: usize> Tracker<'a, N> {
             checked: &self.checked,
             size: (self.width, self.height),
             live: &live,
-            cooling: self.failed.spots(),
             room,
+            earlier,
         };
         let mut adopt = |position, anchor| set.adopt(position, anchor, born);
-        start_tracks(birth, (frame, half), &mut self.buffers, &mut adopt, report)
+        start_tracks(
+            birth,
+            (frame, half),
+            &mut self.buffers,
+            (&mut adopt, failed, born),
+            report,
+        )
     }
 
     /// Remembers `frame` as the previous frame, its pyramid in `half`, and counts it.
@@ -863,13 +883,15 @@ impl<const N: usize> TrackSet<N> {
 /// Detects corners away from the live tracks in `frame`, whose pyramid is in `half` of the
 /// storage, and starts up to `birth.room` new tracks, each handed to `adopt`. A corner becomes
 /// a track only where LK accepts its window: otherwise it would be dropped on its first step
-/// and found again by the next refill, frame after frame.
+/// and found again by the next refill, frame after frame. With `birth.earlier`, whose pyramid
+/// is in the other half, a corner must also have arrived from that frame as a track would
+/// have; one that did not is marked in `cooling` in frame `now`.
 // Not generic over the tracker's capacity: one copy serves every tracker size.
 fn start_tracks(
     birth: Birth<'_>,
     (frame, half): (ImageView<'_>, usize),
     buffers: &mut TrackerBuffers<'_>,
-    adopt: &mut dyn FnMut(Point, Anchor) -> bool,
+    (adopt, cooling, now): (&mut dyn FnMut(Point, Anchor) -> bool, &mut dyn Cooling, u32),
     report: &mut FrameReport,
 ) -> Result<(), TrackerError> {
     let Birth {
@@ -877,26 +899,43 @@ fn start_tracks(
         checked,
         size,
         live,
-        cooling,
         room,
+        earlier,
     } = birth;
     let levels = config.pyramid_levels();
     let StorageParts {
         halves: [first, second],
         fast_rows,
     } = buffers::split_storage(buffers.storage, size.0, size.1, levels);
-    let storage = if half == 0 { first } else { second };
+    let (storage, other) = if half == 0 {
+        (first, second)
+    } else {
+        (second, first)
+    };
     let pyramid = Pyramid::from_storage(frame, levels, storage).map_err(TrackerError::Config)?;
     let Some(level_image) = pyramid.level(config.refill.level) else {
         return Ok(());
+    };
+    let before = match earlier {
+        Some(e) => Some((
+            Pyramid::from_storage(e.frame, levels, other).map_err(TrackerError::Config)?,
+            e,
+        )),
+        None => None,
     };
     let detect = DetectBuffers {
         fast_rows,
         scratch: buffers.detect_scratch,
         candidates: buffers.candidates,
     };
-    let corners = refill::new_corners(&config.refill, &level_image, size, (live, cooling), detect)
-        .map_err(TrackerError::Config)?;
+    let corners = refill::new_corners(
+        &config.refill,
+        &level_image,
+        size,
+        (live, cooling.spots()),
+        detect,
+    )
+    .map_err(TrackerError::Config)?;
     report.detected = true;
     let mut started = 0;
     for corner in corners {
@@ -907,6 +946,22 @@ fn start_tracks(
         let Some(anchor) = anchor else {
             continue;
         };
+        if let Some((prev, earlier)) = &before {
+            let step = Follow {
+                checked,
+                prev,
+                next: &pyramid,
+                predict: earlier.predict,
+            };
+            let arrived = step
+                .arrived(corner.position, &earlier.limits, buffers.lk_scratch)
+                .map_err(lk_refusal)?;
+            if !arrived {
+                cooling.mark(corner.position, now);
+                report.refused = report.refused.saturating_add(1);
+                continue;
+            }
+        }
         if !adopt(corner.position, anchor) {
             break;
         }
@@ -953,11 +1008,18 @@ struct Birth<'c> {
     size: (usize, usize),
     /// Where the live tracks are: new ones keep their distance.
     live: &'c [Point],
-    /// Where young tracks failed lately: new ones keep twice the distance (see
-    /// [`Refill::cooldown`]).
-    cooling: &'c [(Point, u32)],
     /// How many tracks may start.
     room: usize,
+    /// The frame before, when new tracks must have arrived from it.
+    earlier: Option<Earlier<'c>>,
+}
+
+/// The frame before the one new tracks start in, the residual limits its step held the
+/// frame's tracks to, and the caller's prediction of that step.
+struct Earlier<'f> {
+    frame: ImageView<'f>,
+    limits: StepLimits,
+    predict: Option<&'f dyn Fn(Point) -> Point>,
 }
 
 /// Checks each buffer against the size the configuration needs.

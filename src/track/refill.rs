@@ -80,6 +80,15 @@ pub(super) fn new_corners<'b>(
 
 /// Where young tracks failed a gate lately, and in which frame, oldest first: new tracks keep
 /// away from them for [`Refill::cooldown`] frames.
+/// Where young tracks failed lately, whatever the tracker's capacity: refill keeps away from
+/// them, and marks the corners it refuses.
+pub(super) trait Cooling {
+    /// The spots, each with the frame it was marked in.
+    fn spots(&self) -> &[(Point, u32)];
+    /// Marks `at` in `frame`, forgetting the oldest spot when full.
+    fn mark(&mut self, at: Point, frame: u32);
+}
+
 #[derive(Debug)]
 pub(super) struct FailedSpots<const N: usize> {
     spots: Vec<(Point, u32), N>,
@@ -91,10 +100,6 @@ impl<const N: usize> FailedSpots<N> {
     }
 
     /// The spots and their frames, oldest first.
-    pub(super) fn spots(&self) -> &[(Point, u32)] {
-        &self.spots
-    }
-
     /// Forgets the spots marked `cooldown` frames or more before `frame`.
     pub(super) fn expire(&mut self, frame: u32, cooldown: u16) {
         let cooldown = u32::from(cooldown);
@@ -103,14 +108,6 @@ impl<const N: usize> FailedSpots<N> {
     }
 
     /// Marks `at`, where a young track failed in `frame`; when full, the oldest spot makes room.
-    pub(super) fn mark(&mut self, at: Point, frame: u32) {
-        if self.spots.is_full() {
-            self.spots.remove(0);
-        }
-        let pushed = self.spots.push((at, frame));
-        debug_assert!(pushed.is_ok(), "room was made");
-    }
-
     pub(super) fn clear(&mut self) {
         self.spots.clear();
     }
@@ -121,6 +118,20 @@ impl<const N: usize> FailedSpots<N> {
 ///
 /// The detector already skipped corners near live tracks; this keeps the new ones apart, which
 /// FAST's 3 x 3 suppression alone does not.
+impl<const N: usize> Cooling for FailedSpots<N> {
+    fn spots(&self) -> &[(Point, u32)] {
+        &self.spots
+    }
+
+    fn mark(&mut self, at: Point, frame: u32) {
+        if self.spots.is_full() {
+            self.spots.remove(0);
+        }
+        let pushed = self.spots.push((at, frame));
+        debug_assert!(pushed.is_ok(), "room was made");
+    }
+}
+
 fn space_out(corners: &mut [Corner], mask: &mut ExclusionMask, radius: u16) -> usize {
     let mut kept = 0;
     for i in 0..corners.len() {

@@ -144,6 +144,7 @@ impl Stats {
         self.totals.dropped_fb += report.dropped_fb;
         if index > 0 {
             self.totals.added += report.added;
+            self.totals.refused += report.refused;
         }
     }
 
@@ -183,14 +184,15 @@ impl Stats {
             ),
             format!(
                 "dropped: {} lost, {} out of frame, {} residual, {} appearance, {} relocation, {} \
-                 forward-backward; {} started after frame 0",
+                 forward-backward; {} started after frame 0, {} corners refused at birth",
                 t.dropped_lost,
                 t.dropped_out_of_frame,
                 t.dropped_residual,
                 t.dropped_appearance,
                 t.dropped_relocation,
                 t.dropped_fb,
-                t.added
+                t.added,
+                t.refused
             ),
             format!(
                 "library time per frame: {:.2} ms mean, {:.2} ms slowest (this machine)",

@@ -77,9 +77,11 @@ pub struct TrackOptions {
     #[arg(long, value_name = "DIR", value_parser = path)]
     pub viz: Option<PathBuf>,
     /// write {"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life",
-    /// "drops": {reason: count}}: the library's time per frame (decoding and writing
-    /// excluded), the frames a track is live in on average, and the tracks dropped by each
-    /// gate (lost, out_of_frame, residual, appearance, relocation, forward_backward)
+    /// "drops": {reason: count}, "refused"}: the library's time per frame (decoding and
+    /// writing excluded), the frames a track is live in on average, the tracks dropped by each
+    /// gate (lost, out_of_frame, residual, appearance, relocation, forward_backward), and the
+    /// corners not started because their step from the frame before already failed the
+    /// residual gate
     #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
 }
@@ -176,6 +178,8 @@ struct TrackLives {
     frames: HashMap<u32, u64>,
     /// Tracks dropped for each of [`DROP_REASONS`].
     drops: [u64; DROP_REASONS.len()],
+    /// Corners not started because they would have failed their first step.
+    refused: u64,
 }
 
 impl TrackLives {
@@ -186,6 +190,7 @@ impl TrackLives {
         for (total, (_, count)) in self.drops.iter_mut().zip(DROP_REASONS) {
             *total += count(&tracked.report) as u64;
         }
+        self.refused += tracked.report.refused as u64;
     }
 
     /// The mean of the frames each track was live in, tracks still live at the end counted to
@@ -195,9 +200,10 @@ impl TrackLives {
     }
 }
 
-/// `{"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life", "drops"}`: the
-/// library's time per frame (pyramid, tracking, gates, detection), decoding and writing
-/// excluded, the frames a track lived in on average, and the tracks each gate dropped.
+/// `{"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life", "drops",
+/// "refused"}`: the library's time per frame (pyramid, tracking, gates, detection), decoding
+/// and writing excluded, the frames a track lived in on average, the tracks each gate dropped,
+/// and the corners refused at birth.
 fn write_stats(
     mut file: AtomicFile,
     seconds: &mut [f64],
@@ -215,6 +221,7 @@ fn write_stats(
         "mean_frame_seconds": mean,
         "mean_track_life": lives.mean(),
         "drops": drops,
+        "refused": lives.refused,
     }));
     file.write_all(summary.as_bytes())
         .map_err(|e| file.write_error(&e))?;

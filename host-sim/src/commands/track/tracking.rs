@@ -94,8 +94,9 @@ pub struct TrackerSettings {
     #[arg(long, value_name = "F", value_parser = frames_period)]
     pub relocate_every: Option<u32>,
     /// refill cooldown, frames: for this many frames no new track starts near where a track
-    /// failed a gate in its first four frames (0 turns it off) [default: 32; 0 with the
-    /// flow-sensor preset]
+    /// failed a gate in its first four frames, nor near a corner whose step from the frame
+    /// before fails the residual gate, which does not start (0 turns both off) [default: 32;
+    /// 0 with the flow-sensor preset]
     #[arg(long, value_name = "F")]
     pub refill_cooldown: Option<u16>,
 }

@@ -21,6 +21,9 @@
 //! 7. [`BoxPersistence`]: the boxes whose objects moved in consecutive frame pairs.
 //! 8. [`join_bodies`]: the persisting boxes that are parts of one body (a walker's legs and
 //!    torso from regions of their own) joined.
+//! 9. [`grow_over_change`]: on a still camera, each box grown over the pixels connected to it
+//!    that changed between the frames (a walker's flat coat and trousers), and the boxes that
+//!    then overlap joined.
 //!
 //! [`MovingObjects`] runs them in that order, one frame pair at a time: the motion detector as
 //! one type, the one the firmware and host-sim run.
@@ -105,6 +108,7 @@ mod objects;
 mod outline;
 mod persist;
 mod regions;
+mod silhouette;
 mod smooth;
 
 pub use bodies::{join_bodies, BODY_GAP};
@@ -126,6 +130,7 @@ pub use outline::{
 };
 pub use persist::BoxPersistence;
 pub use regions::{find_boxes, BoxRules, MotionBox, RegionCount};
+pub use silhouette::grow_over_change;
 pub use smooth::{
     smooth_scratch_len, smooth_tracked, SMOOTH_GATE, SMOOTH_MIN_AFFINE, SMOOTH_PASSES,
 };

@@ -7,6 +7,7 @@ use super::motion::{CameraMotion, MotionDetector, MotionParams, MotionSummary};
 use super::outline::{OutlineParams, Outliner};
 use super::persist::BoxPersistence;
 use super::regions::{BoxRules, MotionBox};
+use super::silhouette::grow_over_change;
 use super::DenseError;
 use crate::ego::{EgoMotion, EgoStatus};
 use crate::pyramid::Pyramid;
@@ -180,8 +181,10 @@ pub enum ObjectsStage {
 /// motion (the caller's, fitted to the tracks, or else the grid's own dominant fit,
 /// [`DominantMotion::fit`]), the motion mask and its regions ([`MotionDetector`]), optionally
 /// each region outlined at pixel level ([`Outliner`]), the persistence over frame pairs
-/// ([`BoxPersistence`]), and the persisting boxes that are parts of one body joined
-/// ([`join_bodies`]). The firmware, `host-sim motion` and `host-sim demo` all run this type.
+/// ([`BoxPersistence`]), the persisting boxes that are parts of one body joined
+/// ([`join_bodies`]), and on a still camera each box grown over the pixels connected to it
+/// that changed between the frames ([`grow_over_change`]: a walker's flat coat and trousers).
+/// The firmware, `host-sim motion` and `host-sim demo` all run this type.
 ///
 /// Memory: the frames' pyramids are the caller's (a tracker lends its own, so each frame's
 /// pyramid is built once), and so are the per-frame buffers ([`MovingObjectsBuffers`], each
@@ -569,6 +572,7 @@ impl<const N: usize, const OUTLINE: bool> MovingObjects<N, OUTLINE> {
             .persistence
             .confirm(layout, &mut self.boxes, candidates);
         summary.boxes = join_bodies(&mut self.boxes, summary.boxes, camera);
+        summary.boxes = grow_over_change(prev, next, &mut self.boxes, summary.boxes, camera);
         self.reported = summary.boxes;
         stage_ended(ObjectsStage::Persist);
         Ok((summary, candidates))

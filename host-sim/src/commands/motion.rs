@@ -45,7 +45,10 @@ object has moved in two consecutive frame pairs (--persist): a region that moves
 alone (a wrong match, a patch clipped by an exposure jump) gives no box, and an object's first
 pair gives none either. Reported boxes within 4 px of each other whose motions against the
 camera differ by at most a pixel or half the faster one's are parts of one body (a walker's
-legs and torso) and are joined into one box.",
+legs and torso) and are joined into one box. On a still camera each box then grows over the
+pixels connected to it that changed between the two frames by more than 15 grey levels (on
+the half-resolution image; a change by a shadow's factor does not count), which a walker's
+flat coat and trousers do though they give no flow, and takes in the boxes it then overlaps.",
     after_help = "boxes.csv columns:
   frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
              more)

@@ -1,0 +1,387 @@
+//! Boxes grown over the pixels that changed between the two frames, on a still camera.
+//!
+//! The grid's flow is measured where a mover has texture: a walker's face, the folds and edges
+//! of its clothes. A dark coat or plain trousers are flat inside, so their nodes have no flow
+//! of their own, and a walker's box often holds its upper body alone, or one of two walkers
+//! who walk together. Where the camera is still, the pixels a mover covers or uncovers change
+//! between the frames even where they are flat, and they join its parts: each box grows over
+//! the changed pixels connected to it, as a background subtractor's silhouette would.
+//!
+//! A shadow changes the ground too; it dims it by a factor and keeps its texture, so a pixel
+//! whose darker value is between two fifths and nine tenths of its brighter one does not count
+//! as changed. The growth runs on pyramid level 1 (half the resolution, smoothed by the
+//! pyramid's filter), where a sensor's noise is about half as strong.
+
+use super::motion::CameraMotion;
+use super::regions::MotionBox;
+use crate::frame::ImageView;
+use crate::pyramid::Pyramid;
+
+/// Grey levels a pixel of pyramid level 1 must change by between the frames to count as
+/// changed: well above a sensor's noise, smoothed by the pyramid.
+const CHANGE_LEVELS: u8 = 15;
+
+/// Pixels of level 1 between two changed pixels that still connect them: a mover's outline
+/// breaks where it crosses ground of its own brightness.
+const REACH: usize = 2;
+
+/// The camera is taken as still when it moves no pixel of the frame by more than this, px.
+const STILL_PX: f32 = 0.5;
+
+/// The growth is left out when more than this share of the frame changed (an exposure step, a
+/// scene cut): the changed pixels then say nothing about the movers.
+const MOST_CHANGED: (usize, usize) = (3, 10);
+
+/// Each side of a box grows at most by this many times its own length: a box does not follow
+/// a long stretch of changed pixels across the frame.
+const MOST_GROWTH: usize = 3;
+
+/// Grows each of the first `count` of `boxes` over the pixels connected to it that changed
+/// between `prev` and `next`, when `camera` is still, and joins to a box that grew the boxes
+/// it then overlaps (parts of one body, or movers whose changed pixels touch, as a background
+/// subtractor's silhouettes do), with the larger one's nodes and flow; returns how many boxes
+/// are left, at the front of `boxes` in their order. A moving camera, or a frame pair that
+/// changed nearly everywhere, leaves them as they are.
+///
+/// A walker in a dark coat and trousers on light ground, 4 px to the right a frame: its flow was
+/// measured on the coat, whose box the trousers' changed edges grow down to the feet. A box
+/// on still ground beside it does not grow.
+///
+/// ```
+/// use kestrel::dense::{grow_over_change, MotionBox};
+/// use kestrel::ego::Homography;
+/// use kestrel::pyramid::{pyramid_storage_len, Pyramid};
+/// use kestrel::{ImageView, Point};
+///
+/// const W: usize = 64;
+/// const H: usize = 48;
+/// // Light ground; a coat 12 px wide from row 10 to 25, two legs 4 px wide to row 39.
+/// let frame = |left: usize| -> Vec<u8> {
+///     (0..W * H)
+///         .map(|i| {
+///             let (x, y) = (i % W, i / W);
+///             let coat = (left..left + 12).contains(&x) && (10..26).contains(&y);
+///             let legs = (26..40).contains(&y)
+///                 && ((left + 1..left + 5).contains(&x) || (left + 7..left + 11).contains(&x));
+///             if coat || legs { 40 } else { 170 }
+///         })
+///         .collect()
+/// };
+/// let (a, b) = (frame(20), frame(24));
+/// let mut sa = [0u8; pyramid_storage_len(W, H, 1)];
+/// let mut sb = [0u8; pyramid_storage_len(W, H, 1)];
+/// let prev = Pyramid::build(ImageView::packed(&a, W, H).unwrap(), 1, &mut sa).unwrap();
+/// let next = Pyramid::build(ImageView::packed(&b, W, H).unwrap(), 1, &mut sb).unwrap();
+/// let flow = Point::from_f32(4.0, 0.0);
+/// let coat = MotionBox { x: 20, y: 10, w: 14, h: 16, nodes: 4, mean_flow: flow };
+/// let ground = MotionBox { x: 50, y: 30, w: 8, h: 8, nodes: 1, mean_flow: flow };
+/// let mut boxes = [coat, ground];
+/// assert_eq!(grow_over_change(&prev, &next, &mut boxes, 2, &Homography::IDENTITY), 2);
+/// let walker = boxes[0];
+/// // Down to the feet, and over the ground the coat covered.
+/// assert_eq!((walker.x, walker.y, walker.w, walker.h), (20, 10, 16, 30));
+/// assert_eq!(boxes[1], ground);
+/// // A camera that pans leaves the boxes as they are.
+/// let mut boxes = [coat, ground];
+/// let pan = Homography::translation(3.0, 0.0).unwrap();
+/// assert_eq!(grow_over_change(&prev, &next, &mut boxes, 2, &pan), 2);
+/// assert_eq!(boxes[0], coat);
+/// ```
+pub fn grow_over_change(
+    prev: &Pyramid<'_>,
+    next: &Pyramid<'_>,
+    boxes: &mut [MotionBox],
+    count: usize,
+    camera: &impl CameraMotion,
+) -> usize {
+    let count = count.min(boxes.len());
+    let (Some(a), Some(b)) = (prev.level(1), next.level(1)) else {
+        return count;
+    };
+    if count == 0 || !a.same_size(&b) || !is_still(camera, &prev.base()) {
+        return count;
+    }
+    let change = Change { a, b };
+    if change.nearly_everywhere() {
+        return count;
+    }
+    let mut count = count;
+    let mut i = 0;
+    while i < count {
+        let Some(&found) = boxes.get(i) else {
+            break;
+        };
+        let mut body = change.grown(&found);
+        if body != found {
+            // The boxes the grown one now overlaps are joined to it. Boxes that overlapped
+            // before, none of them grown, stay as they were (two walkers passing each other).
+            let mut j = 0;
+            while j < count {
+                match boxes.get(j) {
+                    Some(other) if j != i && overlap(&body, other) => {
+                        body = larger_first(&body, other);
+                        boxes.copy_within(j.saturating_add(1)..count, j);
+                        count = count.saturating_sub(1);
+                        if j < i {
+                            i = i.saturating_sub(1);
+                        }
+                    }
+                    _ => j = j.saturating_add(1),
+                }
+            }
+            if let Some(slot) = boxes.get_mut(i) {
+                *slot = body;
+            }
+        }
+        i = i.saturating_add(1);
+    }
+    count
+}
+
+/// Whether `p` and `q` share a pixel.
+fn overlap(p: &MotionBox, q: &MotionBox) -> bool {
+    let apart = |a: u16, a_len: u16, b: u16, b_len: u16| {
+        a.saturating_add(a_len) <= b || b.saturating_add(b_len) <= a
+    };
+    !(apart(p.x, p.w, q.x, q.w) || apart(p.y, p.h, q.y, q.h))
+}
+
+/// The box around `p` and `q`, with the larger one's nodes and flow.
+fn larger_first(p: &MotionBox, q: &MotionBox) -> MotionBox {
+    if p.area() >= q.area() {
+        p.union(q)
+    } else {
+        q.union(p)
+    }
+}
+
+/// Whether `camera` moves no pixel of `frame` by more than [`STILL_PX`]: its corners and
+/// centre are checked, which bound a homography's flow over the frame but for a strong
+/// perspective.
+fn is_still(camera: &impl CameraMotion, frame: &ImageView<'_>) -> bool {
+    #[allow(clippy::cast_precision_loss)] // frame sides are at most 4096
+    let (w, h) = (frame.width() as f32, frame.height() as f32);
+    let points = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h), (w / 2.0, h / 2.0)];
+    points.iter().all(|&(x, y)| {
+        let (dx, dy) = camera.flow_at(x, y);
+        dx * dx + dy * dy <= STILL_PX * STILL_PX
+    })
+}
+
+/// Level 1 of both frames of a pair.
+struct Change<'f> {
+    a: ImageView<'f>,
+    b: ImageView<'f>,
+}
+
+impl Change<'_> {
+    /// The values of pixel (`x`, `y`) of level 1 in both frames, when they differ by more
+    /// than [`CHANGE_LEVELS`].
+    fn differs(&self, x: usize, y: usize) -> Option<(u8, u8)> {
+        let (a, b) = (self.a.get(x, y)?, self.b.get(x, y)?);
+        (a.abs_diff(b) > CHANGE_LEVELS).then_some((a, b))
+    }
+
+    /// Whether pixel (`x`, `y`) of level 1 changed between the frames by more than
+    /// [`CHANGE_LEVELS`] and not as a shadow does; false off the level.
+    fn at(&self, x: usize, y: usize) -> bool {
+        let Some((a, b)) = self.differs(x, y) else {
+            return false;
+        };
+        let (dark, bright) = (u16::from(a.min(b)), u16::from(a.max(b)));
+        // Each product is below 10 x 255.
+        let times = |k: u16, v: u16| k.saturating_mul(v);
+        let shadow = times(5, dark) >= times(2, bright) && times(10, dark) <= times(9, bright);
+        !shadow
+    }
+
+    /// Whether more than [`MOST_CHANGED`] of the level changed, shadows or not (an exposure
+    /// step dims or brightens the frame by a factor as a shadow does), judged on every fourth
+    /// pixel of every fourth row.
+    fn nearly_everywhere(&self) -> bool {
+        let (w, h) = (self.a.width(), self.a.height());
+        let (mut changed, mut seen) = (0usize, 0usize);
+        for y in (0..h).step_by(4) {
+            for x in (0..w).step_by(4) {
+                seen = seen.saturating_add(1);
+                changed = changed.saturating_add(usize::from(self.differs(x, y).is_some()));
+            }
+        }
+        let (share, of) = MOST_CHANGED;
+        changed.saturating_mul(of) > seen.saturating_mul(share)
+    }
+
+    /// The size of level 1.
+    fn size(&self) -> (usize, usize) {
+        (self.a.width(), self.a.height())
+    }
+
+    /// `found` (px of the full frame) grown side by side, on level 1, over the changed pixels
+    /// within [`REACH`] of a changed pixel inside it, until none is, or until a side has grown
+    /// by [`MOST_GROWTH`] times the box's length.
+    fn grown(&self, found: &MotionBox) -> MotionBox {
+        let (w, h) = self.size();
+        let start = Span::of(found, (w, h));
+        if start.x0 >= start.x1 || start.y0 >= start.y1 {
+            return *found;
+        }
+        let reach = |low: usize, high: usize| MOST_GROWTH.saturating_mul(high.saturating_sub(low));
+        let (across, down) = (reach(start.x0, start.x1), reach(start.y0, start.y1));
+        let limit = Span {
+            x0: start.x0.saturating_sub(across),
+            y0: start.y0.saturating_sub(down),
+            x1: start.x1.saturating_add(across).min(w),
+            y1: start.y1.saturating_add(down).min(h),
+        };
+        let mut span = start;
+        while let Some(wider) = self.step(&span, &limit) {
+            span = wider;
+        }
+        if span == start {
+            return *found;
+        }
+        // Back to full resolution, never smaller than the box found.
+        let to_px = |v: usize| u16::try_from(v.saturating_mul(2)).unwrap_or(u16::MAX);
+        let grown = MotionBox {
+            x: to_px(span.x0),
+            y: to_px(span.y0),
+            w: to_px(span.x1.saturating_sub(span.x0)),
+            h: to_px(span.y1.saturating_sub(span.y0)),
+            ..*found
+        };
+        grown.union(found)
+    }
+
+    /// `span` grown by one pixel on every side where a changed pixel just outside it lies
+    /// within [`REACH`] of a changed pixel inside it, within `limit`; `None` when no side grows.
+    fn step(&self, span: &Span, limit: &Span) -> Option<Span> {
+        let mut wider = *span;
+        let (rows, columns) = (span.y0..span.y1, span.x0..span.x1);
+        let column = |x: usize| rows.clone().any(|y| self.linked((x, y), span));
+        let row = |y: usize| columns.clone().any(|x| self.linked((x, y), span));
+        // Each side moves at most to its limit, which lies inside the level.
+        if span.x0 > limit.x0 && column(span.x0.saturating_sub(1)) {
+            wider.x0 = span.x0.saturating_sub(1);
+        }
+        if span.x1 < limit.x1 && column(span.x1) {
+            wider.x1 = span.x1.saturating_add(1);
+        }
+        if span.y0 > limit.y0 && row(span.y0.saturating_sub(1)) {
+            wider.y0 = span.y0.saturating_sub(1);
+        }
+        if span.y1 < limit.y1 && row(span.y1) {
+            wider.y1 = span.y1.saturating_add(1);
+        }
+        (wider != *span).then_some(wider)
+    }
+
+    /// Whether pixel `(x, y)` changed and a changed pixel of `span` lies within [`REACH`] of
+    /// it on both axes.
+    fn linked(&self, (x, y): (usize, usize), span: &Span) -> bool {
+        if !self.at(x, y) {
+            return false;
+        }
+        let near = |v: usize, low: usize, high: usize| {
+            v.saturating_sub(REACH).max(low)..v.saturating_add(REACH + 1).min(high)
+        };
+        let (xs, ys) = (near(x, span.x0, span.x1), near(y, span.y0, span.y1));
+        ys.into_iter()
+            .any(|yi| xs.clone().any(|xi| self.at(xi, yi)))
+    }
+}
+
+/// A box on level 1, in pixels, ends excluded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Span {
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+}
+
+impl Span {
+    /// The pixels of level 1 (`size`) that box `b` of the full frame covers.
+    fn of(b: &MotionBox, (w, h): (usize, usize)) -> Self {
+        Self {
+            x0: usize::from(b.x >> 1),
+            y0: usize::from(b.y >> 1),
+            x1: usize::from(b.x.saturating_add(b.w)).div_ceil(2).min(w),
+            y1: usize::from(b.y.saturating_add(b.h)).div_ceil(2).min(h),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ego::Homography;
+    use crate::pyramid::pyramid_storage_len;
+    use crate::q16::Point;
+
+    const W: usize = 64;
+    const H: usize = 48;
+
+    /// Light ground, with `value` over the columns `left..left + 12` of rows 10 to 39.
+    fn frame(left: usize, ground: u8, value: u8) -> [u8; W * H] {
+        core::array::from_fn(|i| {
+            let (x, y) = (i % W, i / W);
+            let on = (left..left + 12).contains(&x) && (10..40).contains(&y);
+            if on {
+                value
+            } else {
+                ground
+            }
+        })
+    }
+
+    /// The boxes grown between frames `a` and `b` under a still camera.
+    fn grow(a: &[u8], b: &[u8], boxes: &mut [MotionBox]) -> usize {
+        let mut sa = [0u8; pyramid_storage_len(W, H, 1)];
+        let mut sb = [0u8; pyramid_storage_len(W, H, 1)];
+        let prev = Pyramid::build(ImageView::packed(a, W, H).unwrap(), 1, &mut sa).unwrap();
+        let next = Pyramid::build(ImageView::packed(b, W, H).unwrap(), 1, &mut sb).unwrap();
+        let count = boxes.len();
+        grow_over_change(&prev, &next, boxes, count, &Homography::IDENTITY)
+    }
+
+    fn part(x: u16, y: u16, flow: f32) -> MotionBox {
+        MotionBox {
+            x,
+            y,
+            w: 8,
+            h: 8,
+            nodes: 1,
+            mean_flow: Point::from_f32(flow, 0.0),
+        }
+    }
+
+    #[test]
+    fn a_dark_mover_grows_and_its_shadow_does_not() {
+        let top = part(24, 10, 4.0);
+        let mut boxes = [top];
+        grow(&frame(20, 170, 20), &frame(24, 170, 20), &mut boxes);
+        assert_eq!((boxes[0].y, boxes[0].h), (10, 30), "grown down the mover");
+        // The same moving patch dimming the ground to 0.6 of its brightness: a shadow.
+        let mut boxes = [top];
+        grow(&frame(20, 170, 102), &frame(24, 170, 102), &mut boxes);
+        assert_eq!(boxes[0], top);
+    }
+
+    #[test]
+    fn an_exposure_step_leaves_the_boxes() {
+        let top = part(24, 10, 4.0);
+        let mut boxes = [top];
+        // The whole frame 60 levels brighter, the mover too.
+        grow(&frame(20, 100, 20), &frame(24, 160, 80), &mut boxes);
+        assert_eq!(boxes[0], top);
+    }
+
+    #[test]
+    fn boxes_that_overlapped_before_and_did_not_grow_stay_apart() {
+        let (a, b) = (part(2, 2, 1.0), part(6, 4, -1.0));
+        let still = frame(20, 170, 170);
+        let mut boxes = [a, b];
+        assert_eq!(grow(&still, &still, &mut boxes), 2);
+        assert_eq!(boxes, [a, b]);
+    }
+}

@@ -70,11 +70,14 @@ def test_the_refill_keeps_away_from_where_young_tracks_failed():
         tracker = kestrel.Tracker(**keywords)
         for frame in frames:
             tracker.process(frame)
-        return tracker.totals["added"]
+        return tracker.totals["added"], tracker.totals["refused"]
 
-    with_cooldown, without = started(), started(refill_cooldown=0)
-    # Measured: 114 tracks started with the default 32 frames, 610 without.
+    (with_cooldown, refused), (without, none) = started(), started(refill_cooldown=0)
+    # Measured: 114 tracks started with the default 32 frames, 6 corners refused at birth; 605
+    # started without.
     assert with_cooldown * 4 < without, (with_cooldown, without)
+    # With the cooldown, corners whose step from the frame before fails are not started.
+    assert refused > 0 and none == 0, (refused, none)
 
 
 def test_restart_and_flow_sensor_preset():

@@ -327,8 +327,10 @@ fn motion_result(
 /// flow between consecutive frames, the camera's dominant motion fitted to it, the nodes that
 /// move otherwise as a cleaned mask, its connected regions outlined at pixel level into
 /// object boxes, only the boxes whose objects moved in `persist_pairs` consecutive pairs
-/// reported, and those that are parts of one body (within 4 px, moving alike against the
-/// camera) joined into one.
+/// reported, those that are parts of one body (within 4 px, moving alike against the camera)
+/// joined into one, and on a still camera each box grown over the pixels connected to it that
+/// changed between the frames (a walker's flat coat and trousers), taking in the boxes it then
+/// overlaps.
 ///
 /// MotionDetector(width=None, height=None, *, cell=8, persist_pairs=2, outline=True)
 ///

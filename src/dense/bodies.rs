@@ -54,14 +54,16 @@ pub fn join_bodies(boxes: &mut [MotionBox], count: usize, camera: &impl CameraMo
     let one_body = |a: &MotionBox, b: &MotionBox| {
         a.gap_to(b) <= BODY_GAP && moves_alike(against_camera(a, camera), against_camera(b, camera))
     };
-    let larger_first = |a: &MotionBox, b: &MotionBox| {
-        if a.area() >= b.area() {
-            a.union(b)
-        } else {
-            b.union(a)
-        }
-    };
     join_pairs(boxes, count, one_body, larger_first)
+}
+
+/// The box around `a` and `b`, with the larger one's nodes and flow.
+pub(super) fn larger_first(a: &MotionBox, b: &MotionBox) -> MotionBox {
+    if a.area() >= b.area() {
+        a.union(b)
+    } else {
+        b.union(a)
+    }
 }
 
 /// Joins the first `count` of `boxes` two at a time, each time the first pair `i < j` that

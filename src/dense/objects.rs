@@ -170,7 +170,8 @@ pub enum ObjectsStage {
     Regions,
     /// The regions outlined at pixel level (with an outline only).
     Outline,
-    /// The boxes that persisted, the parts of one body joined.
+    /// The boxes that persisted, the parts of one body joined, and on a still camera grown
+    /// over the changed pixels.
     Persist,
 }
 

@@ -12,17 +12,21 @@
 //! as changed. The growth runs on pyramid level 1 (half the resolution, smoothed by the
 //! pyramid's filter), where a sensor's noise is about half as strong.
 
+use super::bodies::larger_first;
 use super::motion::CameraMotion;
 use super::regions::MotionBox;
 use crate::frame::ImageView;
 use crate::pyramid::Pyramid;
+use crate::q16::Q16;
 
 /// Grey levels a pixel of pyramid level 1 must change by between the frames to count as
 /// changed: well above a sensor's noise, smoothed by the pyramid.
 const CHANGE_LEVELS: u8 = 15;
 
-/// Pixels of level 1 between two changed pixels that still connect them: a mover's outline
-/// breaks where it crosses ground of its own brightness.
+/// How far apart, pixels of level 1 on each axis, two changed pixels may lie and still connect
+/// (one unchanged pixel between them): a mover's outline breaks where it crosses ground of its
+/// own brightness. A side of a box grows only while the row or column just outside it holds a
+/// changed pixel so connected to one inside.
 const REACH: usize = 2;
 
 /// The camera is taken as still when it moves no pixel of the frame by more than this, px.
@@ -40,8 +44,10 @@ const MOST_GROWTH: usize = 3;
 /// between `prev` and `next`, when `camera` is still, and joins to a box that grew the boxes
 /// it then overlaps (parts of one body, or movers whose changed pixels touch, as a background
 /// subtractor's silhouettes do), with the larger one's nodes and flow; returns how many boxes
-/// are left, at the front of `boxes` in their order. A moving camera, or a frame pair that
-/// changed nearly everywhere, leaves them as they are.
+/// are left, at the front of `boxes` in their order. The changed pixels hold a mover where it
+/// is in both frames; the box stays in the earlier frame, the side that grew ahead of its flow
+/// brought back by it. A moving camera, a frame pair that changed nearly everywhere, or
+/// pyramids without level 1 leave the boxes as they are.
 ///
 /// A walker in a dark coat and trousers on light ground, 4 px to the right a frame: its flow was
 /// measured on the coat, whose box the trousers' changed edges grow down to the feet. A box
@@ -78,8 +84,8 @@ const MOST_GROWTH: usize = 3;
 /// let mut boxes = [coat, ground];
 /// assert_eq!(grow_over_change(&prev, &next, &mut boxes, 2, &Homography::IDENTITY), 2);
 /// let walker = boxes[0];
-/// // Down to the feet, and over the ground the coat covered.
-/// assert_eq!((walker.x, walker.y, walker.w, walker.h), (20, 10, 16, 30));
+/// // Down to the feet, where the walker is in the earlier frame.
+/// assert_eq!((walker.x, walker.y, walker.w, walker.h), (20, 10, 14, 30));
 /// assert_eq!(boxes[1], ground);
 /// // A camera that pans leaves the boxes as they are.
 /// let mut boxes = [coat, ground];
@@ -101,7 +107,12 @@ pub fn grow_over_change(
     if count == 0 || !a.same_size(&b) || !is_still(camera, &prev.base()) {
         return count;
     }
-    let change = Change { a, b };
+    let base = prev.base();
+    let change = Change {
+        a,
+        b,
+        full: (base.width(), base.height()),
+    };
     if change.nearly_everywhere() {
         return count;
     }
@@ -115,16 +126,18 @@ pub fn grow_over_change(
         if body != found {
             // The boxes the grown one now overlaps are joined to it. Boxes that overlapped
             // before, none of them grown, stay as they were (two walkers passing each other).
+            // Each join may bring the body over a box already passed: the search starts over.
             let mut j = 0;
             while j < count {
                 match boxes.get(j) {
-                    Some(other) if j != i && overlap(&body, other) => {
+                    Some(other) if j != i && body.overlap_area(other) > 0 => {
                         body = larger_first(&body, other);
                         boxes.copy_within(j.saturating_add(1)..count, j);
                         count = count.saturating_sub(1);
                         if j < i {
                             i = i.saturating_sub(1);
                         }
+                        j = 0;
                     }
                     _ => j = j.saturating_add(1),
                 }
@@ -136,23 +149,6 @@ pub fn grow_over_change(
         i = i.saturating_add(1);
     }
     count
-}
-
-/// Whether `p` and `q` share a pixel.
-fn overlap(p: &MotionBox, q: &MotionBox) -> bool {
-    let apart = |a: u16, a_len: u16, b: u16, b_len: u16| {
-        a.saturating_add(a_len) <= b || b.saturating_add(b_len) <= a
-    };
-    !(apart(p.x, p.w, q.x, q.w) || apart(p.y, p.h, q.y, q.h))
-}
-
-/// The box around `p` and `q`, with the larger one's nodes and flow.
-fn larger_first(p: &MotionBox, q: &MotionBox) -> MotionBox {
-    if p.area() >= q.area() {
-        p.union(q)
-    } else {
-        q.union(p)
-    }
 }
 
 /// Whether `camera` moves no pixel of `frame` by more than [`STILL_PX`]: its corners and
@@ -168,10 +164,61 @@ fn is_still(camera: &impl CameraMotion, frame: &ImageView<'_>) -> bool {
     })
 }
 
-/// Level 1 of both frames of a pair.
+/// Level 1 of both frames of a pair, and the full frame's size.
 struct Change<'f> {
     a: ImageView<'f>,
     b: ImageView<'f>,
+    full: (usize, usize),
+}
+
+/// One axis of a box found, full-resolution pixels, and which of its ends grew on level 1.
+struct Side {
+    start: usize,
+    end: usize,
+    low_grew: bool,
+    high_grew: bool,
+}
+
+impl Side {
+    fn of(start: u16, len: u16, low_grew: bool, high_grew: bool) -> Self {
+        let start = usize::from(start);
+        Self {
+            start,
+            end: start.saturating_add(usize::from(len)),
+            low_grew,
+            high_grew,
+        }
+    }
+
+    /// The ends of this axis once grown to the level-1 ends `(low, high)`, within `size`.
+    /// The changed pixels hold the mover where it is in both frames, and the box is in the
+    /// earlier one: the end that grew ahead of the motion `flow` comes back by it, as far as
+    /// the end found.
+    fn grown(&self, (low, high): (usize, usize), size: usize, flow: Q16) -> (usize, usize) {
+        // Rounded to whole pixels; Q16 bits of a flow far below 2^15 px.
+        let ahead = flow.to_bits().saturating_add(1 << 15) >> 16;
+        let back =
+            |v: usize| usize::try_from(ahead.unsigned_abs()).map_or(v, |a| v.saturating_sub(a));
+        let mut start = if self.low_grew {
+            low.saturating_mul(2).min(self.start)
+        } else {
+            self.start
+        };
+        let mut end = if self.high_grew {
+            high.saturating_mul(2).min(size).max(self.end)
+        } else {
+            self.end
+        };
+        if ahead > 0 && self.high_grew {
+            end = back(end).max(self.end);
+        }
+        if ahead < 0 && self.low_grew {
+            start = start
+                .saturating_add(usize::try_from(ahead.unsigned_abs()).unwrap_or(0))
+                .min(self.start);
+        }
+        (start, end)
+    }
 }
 
 impl Change<'_> {
@@ -240,16 +287,20 @@ impl Change<'_> {
         if span == start {
             return *found;
         }
-        // Back to full resolution, never smaller than the box found.
-        let to_px = |v: usize| u16::try_from(v.saturating_mul(2)).unwrap_or(u16::MAX);
-        let grown = MotionBox {
-            x: to_px(span.x0),
-            y: to_px(span.y0),
-            w: to_px(span.x1.saturating_sub(span.x0)),
-            h: to_px(span.y1.saturating_sub(span.y0)),
+        // Back to full resolution: only the sides that grew move, inside the frame.
+        let (fw, fh) = self.full;
+        let x = Side::of(found.x, found.w, span.x0 < start.x0, span.x1 > start.x1);
+        let y = Side::of(found.y, found.h, span.y0 < start.y0, span.y1 > start.y1);
+        let (x0, x1) = x.grown((span.x0, span.x1), fw, found.mean_flow.x);
+        let (y0, y1) = y.grown((span.y0, span.y1), fh, found.mean_flow.y);
+        let px = |v: usize| u16::try_from(v).unwrap_or(u16::MAX);
+        MotionBox {
+            x: px(x0),
+            y: px(y0),
+            w: px(x1.saturating_sub(x0)),
+            h: px(y1.saturating_sub(y0)),
             ..*found
-        };
-        grown.union(found)
+        }
     }
 
     /// `span` grown by one pixel on every side where a changed pixel just outside it lies
@@ -365,6 +416,20 @@ mod tests {
         let mut boxes = [top];
         grow(&frame(20, 170, 102), &frame(24, 170, 102), &mut boxes);
         assert_eq!(boxes[0], top);
+    }
+
+    #[test]
+    fn a_grown_box_takes_in_the_parts_it_reaches_before_and_after_it() {
+        let (foot, top, hand) = (part(22, 34, 2.0), part(24, 10, 4.0), part(52, 20, -1.0));
+        let mut boxes = [foot, top, hand];
+        assert_eq!(
+            grow(&frame(20, 170, 20), &frame(24, 170, 20), &mut boxes[..]),
+            2
+        );
+        assert_eq!((boxes[0].x, boxes[0].y, boxes[0].h), (20, 10, 32));
+        // The foot's box grew first, over the whole mover: the larger box, its flow kept. A
+        // box away from the mover stays as it was.
+        assert_eq!((boxes[0].mean_flow, boxes[1]), (foot.mean_flow, hand));
     }
 
     #[test]

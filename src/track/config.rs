@@ -409,13 +409,13 @@ pub struct Refill {
     /// failed a gate in its first four frames; 0 turns it off. Such a spot holds a
     /// feature that changes faster than a track can follow (a walker's limbs, a talking face,
     /// leaves in the wind): it is often the strongest corner around, so without a pause each
-    /// refill starts a track there again, which fails again a frame or two later. While
-    /// spots cool down, a new corner must also have arrived from the frame before as a track
+    /// refill starts a track there again, which fails again a frame or two later. When the
+    /// cooldown is not 0, a new corner must also have arrived from the frame before as a track
     /// would have: its window, followed back into that frame, passes the residual gate the
     /// frame's tracks were held to ([`super::FrameReport::refused`] counts those that do not,
-    /// whose spots are marked in turn). It costs one LK step per new track; without it, most
-    /// of the tracks a still camera over a street starts after its first frame are on walkers
-    /// and end on their first step.
+    /// whose spots are marked in turn). It costs one LK step per corner tried; without it,
+    /// most of the tracks a still camera over a street starts after its first frame are on
+    /// walkers and end on their first step.
     pub cooldown: u16,
 }
 

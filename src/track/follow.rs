@@ -179,10 +179,11 @@ impl Follow<'_, '_> {
     /// as a track would have: its window, followed back into the previous frame, passes the
     /// residual gate the frame's tracks were judged by (`limits`). The way back starts from
     /// the caller's prediction reversed, else from the frame's median step reversed. A window
-    /// LK cannot follow back, or that reaches out of the previous frame there (a feature that
-    /// just came into view: its window was partly outside), is given the benefit of the doubt.
-    /// A corner on a feature that changes faster than a track can follow (a walker's limbs, a
-    /// face that talks) fails here as its track would on its first step.
+    /// LK cannot follow back at all, or that reaches out of the previous frame there (a feature
+    /// that just came into view: its window was partly outside), is given the benefit of the
+    /// doubt: only a residual measured is held against a corner. A corner on a feature that
+    /// changes faster than a track can follow (a walker's limbs, a face that talks) fails here
+    /// as its track would fail the residual gate on its first step.
     pub(super) fn arrived(
         &self,
         position: Point,

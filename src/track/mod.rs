@@ -570,15 +570,17 @@ impl<'a, const N: usize> Tracker<'a, N> {
             .map_err(lk_refusal)?;
         // Most tracks failing at once is the frame's doing (a scene cut, a flat or saturated
         // frame), not their places': the spots marked so far no longer mean anything either.
-        if before.saturating_sub(tracks.len()).saturating_mul(2) > before {
+        let most_failed = before.saturating_sub(tracks.len()).saturating_mul(2) > before;
+        if most_failed {
             failed.clear();
         }
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill.below {
             // New corners are held to this step as well when spots cool down: one that
-            // would fail its first step is such a spot already.
-            let earlier = (cooldown > 0).then_some(Earlier {
+            // would fail its first step is such a spot already. Not after a step most tracks
+            // failed: it says nothing of the corners' places either.
+            let earlier = (cooldown > 0 && !most_failed).then_some(Earlier {
                 frame: prev,
                 limits,
                 predict,

@@ -78,8 +78,6 @@ pub(super) fn new_corners<'b>(
     Ok(spaced.get(..selected).unwrap_or(&[]))
 }
 
-/// Where young tracks failed a gate lately, and in which frame, oldest first: new tracks keep
-/// away from them for [`Refill::cooldown`] frames.
 /// Where young tracks failed lately, whatever the tracker's capacity: refill keeps away from
 /// them, and marks the corners it refuses.
 pub(super) trait Cooling {
@@ -89,6 +87,8 @@ pub(super) trait Cooling {
     fn mark(&mut self, at: Point, frame: u32);
 }
 
+/// Where young tracks failed a gate lately, and in which frame, oldest first: new tracks keep
+/// away from them for [`Refill::cooldown`] frames.
 #[derive(Debug)]
 pub(super) struct FailedSpots<const N: usize> {
     spots: Vec<(Point, u32), N>,
@@ -99,7 +99,6 @@ impl<const N: usize> FailedSpots<N> {
         Self { spots: Vec::new() }
     }
 
-    /// The spots and their frames, oldest first.
     /// Forgets the spots marked `cooldown` frames or more before `frame`.
     pub(super) fn expire(&mut self, frame: u32, cooldown: u16) {
         let cooldown = u32::from(cooldown);
@@ -107,22 +106,20 @@ impl<const N: usize> FailedSpots<N> {
             .retain(|&(_, marked)| frame.wrapping_sub(marked) < cooldown);
     }
 
-    /// Marks `at`, where a young track failed in `frame`; when full, the oldest spot makes room.
+    /// Forgets every spot.
     pub(super) fn clear(&mut self) {
         self.spots.clear();
     }
 }
 
-/// Keeps, strongest first, the corners outside `mask`, excluding `radius` around each one kept;
-/// moves them to the front and returns how many there are.
-///
-/// The detector already skipped corners near live tracks; this keeps the new ones apart, which
-/// FAST's 3 x 3 suppression alone does not.
 impl<const N: usize> Cooling for FailedSpots<N> {
+    /// The spots and their frames, oldest first.
     fn spots(&self) -> &[(Point, u32)] {
         &self.spots
     }
 
+    /// Marks `at`, where a young track failed (or a corner was refused) in `frame`; when full,
+    /// the oldest spot makes room.
     fn mark(&mut self, at: Point, frame: u32) {
         if self.spots.is_full() {
             self.spots.remove(0);
@@ -132,6 +129,11 @@ impl<const N: usize> Cooling for FailedSpots<N> {
     }
 }
 
+/// Keeps, strongest first, the corners outside `mask`, excluding `radius` around each one kept;
+/// moves them to the front and returns how many there are.
+///
+/// The detector already skipped corners near live tracks; this keeps the new ones apart, which
+/// FAST's 3 x 3 suppression alone does not.
 fn space_out(corners: &mut [Corner], mask: &mut ExclusionMask, radius: u16) -> usize {
     let mut kept = 0;
     for i in 0..corners.len() {

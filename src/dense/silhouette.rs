@@ -104,10 +104,10 @@ pub fn grow_over_change(
     let (Some(a), Some(b)) = (prev.level(1), next.level(1)) else {
         return count;
     };
-    if count == 0 || !a.same_size(&b) || !is_still(camera, &prev.base()) {
+    let base = prev.base();
+    if count == 0 || !a.same_size(&b) || !is_still(camera, &base) {
         return count;
     }
-    let base = prev.base();
     let change = Change {
         a,
         b,
@@ -197,8 +197,7 @@ impl Side {
     fn grown(&self, (low, high): (usize, usize), size: usize, flow: Q16) -> (usize, usize) {
         // Rounded to whole pixels; Q16 bits of a flow far below 2^15 px.
         let ahead = flow.to_bits().saturating_add(1 << 15) >> 16;
-        let back =
-            |v: usize| usize::try_from(ahead.unsigned_abs()).map_or(v, |a| v.saturating_sub(a));
+        let shift = usize::try_from(ahead.unsigned_abs()).unwrap_or(usize::MAX);
         let mut start = if self.low_grew {
             low.saturating_mul(2).min(self.start)
         } else {
@@ -210,12 +209,10 @@ impl Side {
             self.end
         };
         if ahead > 0 && self.high_grew {
-            end = back(end).max(self.end);
+            end = end.saturating_sub(shift).max(self.end);
         }
         if ahead < 0 && self.low_grew {
-            start = start
-                .saturating_add(usize::try_from(ahead.unsigned_abs()).unwrap_or(0))
-                .min(self.start);
+            start = start.saturating_add(shift).min(self.start);
         }
         (start, end)
     }

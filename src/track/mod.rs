@@ -161,6 +161,12 @@ pub struct Track {
     pub age: u32,
     /// Mean absolute residual of the latest step, grey levels (0 on its first frame).
     pub residual: Q16,
+    /// The residual this track's steps usually leave, grey levels: the mean of its steps'
+    /// residuals, each new step weighing 1/8 (its first step's own residual after one step; 0
+    /// on its first frame). A window's texture decides how much noise, blur and resampling
+    /// cost it, so the relative residual gate also holds a track to this times
+    /// [`Gates::residual_ratio`] when that is higher than the frame's limit.
+    pub usual_residual: Q16,
     /// Index of the frame it was detected in.
     pub born: u32,
     /// Displacement of the latest step, px (zero on its first frame). Without a caller's
@@ -870,6 +876,7 @@ impl<const N: usize> TrackSet<N> {
             previous: position,
             age: 0,
             residual: Q16::ZERO,
+            usual_residual: Q16::ZERO,
             born,
             velocity: Point::default(),
             prediction_error: Q16::MAX,

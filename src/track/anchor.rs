@@ -70,6 +70,8 @@ const MIN_VISIBLE: u32 = 28;
 pub(super) struct Anchor {
     /// Grey levels, row by row.
     samples: [u8; SAMPLES],
+    /// Their sums, for the correlation.
+    sums: SampleSums,
     /// The same grid on the image smoothed over 2 x 2 px ([`smooth_patch`]), grey levels:
     /// what relocation looks for while the image has zoomed by less than [`SMOOTH_ZOOM`] since
     /// the anchor's birth.
@@ -88,16 +90,18 @@ impl Anchor {
         // Grey x 16 rounded to grey: 49 bytes a track, twice.
         let grey = |v: u16| (v.saturating_add(8) >> 4).min(255) as u8;
         let samples = patch(frame, position).0.map(grey);
+        let sums = SampleSums::of(&samples);
         let smooth = smooth_patch(frame, position).0.map(grey);
         let shift = RESAMPLING_SHIFT;
         let across = Point::new(position.x.saturating_add(shift), position.y);
         let down = Point::new(position.x, position.y.saturating_add(shift));
         let resampled_sq = [across, down]
-            .map(|off| Moments::of(&samples, &patch(frame, off).0).correlation_sq())
+            .map(|off| Moments::of(&samples, sums, &patch(frame, off).0).correlation_sq())
             .into_iter()
             .fold(1.0f32, f32::min);
         Self {
             samples,
+            sums,
             smooth,
             turned: Turn::NONE,
             resampled_sq,
@@ -147,7 +151,7 @@ impl Anchor {
             covariance,
             var_a,
             var_b,
-        } = Moments::of(&self.samples, &now);
+        } = Moments::of(&self.samples, self.sums, &now);
         if var_a == 0 || var_b == 0 {
             return false;
         }
@@ -389,6 +393,29 @@ fn difference(i: usize, get: impl Fn(usize) -> i32) -> i32 {
     }
 }
 
+/// The sum of an anchor's samples and of their squares, which every comparison with it needs:
+/// taken once at its birth, they spare the appearance gate two of its five sums on every
+/// frame (grey levels below 2^8: at most 49 * 2^16 < 2^22).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct SampleSums {
+    sum: u32,
+    sum_sq: u32,
+}
+
+impl SampleSums {
+    // Bounded as the type's documentation shows.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn of(samples: &[u8; SAMPLES]) -> Self {
+        samples.iter().fold(Self { sum: 0, sum_sq: 0 }, |s, &x| {
+            let x = u32::from(x);
+            Self {
+                sum: s.sum + x,
+                sum_sq: s.sum_sq + x * x,
+            }
+        })
+    }
+}
+
 /// `n` times the covariance and the two variances of two patches: exact integers.
 ///
 /// With samples below 2^12 and 49 of them, every sum stays below 2^18 (squares 2^30) and
@@ -411,18 +438,18 @@ impl Moments {
 
     // Bounded as the type's documentation shows: no operation here can overflow.
     #[allow(clippy::arithmetic_side_effects)]
-    fn of(a: &[u8; SAMPLES], b: &[u16; SAMPLES]) -> Self {
+    fn of(a: &[u8; SAMPLES], a_sums: SampleSums, b: &[u16; SAMPLES]) -> Self {
         // In 32 bits, exact: the largest sum, of 49 squares of samples below 2^12, is below
         // 49 * 2^24 < 2^30.
-        let (mut sa, mut sb, mut saa, mut sbb, mut sab) = (0u32, 0u32, 0u32, 0u32, 0u32);
+        let (mut sb, mut sbb, mut sab) = (0u32, 0u32, 0u32);
         for (&x, &y) in a.iter().zip(b) {
             let (x, y) = (u32::from(x), u32::from(y));
-            sa += x;
             sb += y;
-            saa += x * x;
             sbb += y * y;
             sab += x * y;
         }
+        debug_assert_eq!(a_sums, SampleSums::of(a), "sums of other samples");
+        let (sa, saa) = (a_sums.sum, a_sums.sum_sq);
         let [sa, sb, saa, sbb, sab] = [sa, sb, saa, sbb, sab].map(i64::from);
         let n = SAMPLES as i64;
         Self {

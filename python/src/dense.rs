@@ -330,7 +330,7 @@ fn motion_result(
 /// reported, those that are parts of one body (within 4 px, moving alike against the camera)
 /// joined into one, and on a still camera each box grown over the pixels connected to it that
 /// changed between the frames (a walker's flat coat and trousers), taking in the boxes it then
-/// overlaps.
+/// overlaps and the feet standing below it.
 ///
 /// MotionDetector(width=None, height=None, *, cell=8, persist_pairs=2, outline=True)
 ///

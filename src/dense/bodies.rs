@@ -57,6 +57,28 @@ pub fn join_bodies(boxes: &mut [MotionBox], count: usize, camera: &impl CameraMo
     join_pairs(boxes, count, one_body, larger_first)
 }
 
+/// Whether `part` lies below `body` as a walker's legs or feet lie below its coat: no taller
+/// than half of `body`, its top below `body`'s middle, at most half `body`'s height under it,
+/// and half its width or more within `body`'s columns. Whatever their motions: a foot that
+/// stands on the ground does not move while the body above it does.
+pub(super) fn stands_below(body: &MotionBox, part: &MotionBox) -> bool {
+    let (top, height) = (u32::from(body.y), u32::from(body.h));
+    let (part_top, part_height) = (u32::from(part.y), u32::from(part.h));
+    let bottom = top.saturating_add(height);
+    let columns = |b: &MotionBox| {
+        (
+            u32::from(b.x),
+            u32::from(b.x).saturating_add(u32::from(b.w)),
+        )
+    };
+    let ((left, right), (part_left, part_right)) = (columns(body), columns(part));
+    let shared = right.min(part_right).saturating_sub(left.max(part_left));
+    part_height.saturating_mul(2) <= height
+        && part_top.saturating_mul(2) >= top.saturating_mul(2).saturating_add(height)
+        && part_top.saturating_sub(bottom).saturating_mul(2) <= height
+        && shared.saturating_mul(2) >= u32::from(part.w)
+}
+
 /// The box around `a` and `b`, with the larger one's nodes and flow.
 pub(super) fn larger_first(a: &MotionBox, b: &MotionBox) -> MotionBox {
     if a.area() >= b.area() {
@@ -138,6 +160,23 @@ mod tests {
             nodes: 1,
             mean_flow: Point::from_f32(flow.0, flow.1),
         }
+    }
+
+    #[test]
+    fn a_small_box_below_a_body_and_within_its_columns_stands_below_it() {
+        let torso = part(40, 20, 12, 20, (2.0, 0.0));
+        let still = (0.0, 0.0);
+        // A foot 8 px below, planted: whatever its motion.
+        assert!(stands_below(&torso, &part(42, 48, 6, 8, still)));
+        assert!(!stands_below(&part(42, 48, 6, 8, still), &torso));
+        // Taller than half the body: a person of its own.
+        assert!(!stands_below(&torso, &part(42, 48, 6, 11, still)));
+        // More than half the body's height below it, or beside it.
+        assert!(!stands_below(&torso, &part(42, 51, 6, 8, still)));
+        assert!(!stands_below(&torso, &part(49, 42, 8, 8, still)));
+        // Overlapping the body's lower half is standing below it too.
+        assert!(stands_below(&torso, &part(44, 32, 6, 10, still)));
+        assert!(!stands_below(&torso, &part(44, 28, 6, 10, still)));
     }
 
     #[test]

@@ -22,8 +22,8 @@
 //! 8. [`join_bodies`]: the persisting boxes that are parts of one body (a walker's legs and
 //!    torso from regions of their own) joined.
 //! 9. [`grow_over_change`]: on a still camera, each box grown over the pixels connected to it
-//!    that changed between the frames (a walker's flat coat and trousers), and the boxes that
-//!    then overlap joined.
+//!    that changed between the frames (a walker's flat coat and trousers), the boxes that
+//!    then overlap joined, and so are the feet standing below a body.
 //!
 //! [`MovingObjects`] runs them in that order, one frame pair at a time: the motion detector as
 //! one type, the one the firmware and host-sim run.

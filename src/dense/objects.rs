@@ -184,7 +184,8 @@ pub enum ObjectsStage {
 /// each region outlined at pixel level ([`Outliner`]), the persistence over frame pairs
 /// ([`BoxPersistence`]), the persisting boxes that are parts of one body joined
 /// ([`join_bodies`]), and on a still camera each box grown over the pixels connected to it
-/// that changed between the frames ([`grow_over_change`]: a walker's flat coat and trousers).
+/// that changed between the frames, and the feet standing below a body joined to it
+/// ([`grow_over_change`]: a walker's flat coat and trousers, its planted foot).
 /// The firmware, `host-sim motion` and `host-sim demo` all run this type.
 ///
 /// Memory: the frames' pyramids are the caller's (a tracker lends its own, so each frame's

@@ -11,8 +11,15 @@
 //! whose darker value is between two fifths and nine tenths of its brighter one does not count
 //! as changed. The growth runs on pyramid level 1 (half the resolution, smoothed by the
 //! pyramid's filter), where a sensor's noise is about half as strong.
+//!
+//! A walker's feet or the bottom of its legs are often a box of their own below its body, with
+//! ground between them that did not change enough to grow over (trousers of the street's
+//! brightness), and a foot that stands does not move with the body. So after the growth a small
+//! box that stands below a larger one (`bodies::stands_below`) is joined to it, unless it changed as a
+//! shadow does: darkened or brightened by a shadow's factor with the ground's texture kept
+//! under it (its changed pixels' darker values correlate with their brighter ones).
 
-use super::bodies::larger_first;
+use super::bodies::{join_pairs, larger_first, stands_below};
 use super::motion::CameraMotion;
 use super::regions::MotionBox;
 use crate::frame::ImageView;
@@ -46,8 +53,10 @@ const MOST_GROWTH: usize = 3;
 /// subtractor's silhouettes do), with the larger one's nodes and flow; returns how many boxes
 /// are left, at the front of `boxes` in their order. The changed pixels hold a mover where it
 /// is in both frames; the box stays in the earlier frame, the side that grew ahead of its flow
-/// brought back by it. A moving camera, a frame pair that changed nearly everywhere, or
-/// pyramids without level 1 leave the boxes as they are.
+/// brought back by it. Then a small box that stands below a larger one, as feet below a
+/// body, is joined to it unless it changed as a shadow does (see the module documentation). A
+/// moving camera, a frame pair that changed nearly everywhere, or pyramids without level 1
+/// leave the boxes as they are.
 ///
 /// A walker in a dark coat and trousers on light ground, 4 px to the right a frame: its flow was
 /// measured on the coat, whose box the trousers' changed edges grow down to the feet. A box
@@ -148,7 +157,14 @@ pub fn grow_over_change(
         }
         i = i.saturating_add(1);
     }
-    count
+    let legs_of =
+        |body: &MotionBox, part: &MotionBox| stands_below(body, part) && !change.is_shadow(part);
+    join_pairs(
+        boxes,
+        count,
+        |a, b| legs_of(a, b) || legs_of(b, a),
+        larger_first,
+    )
 }
 
 /// Whether `camera` moves no pixel of `frame` by more than [`STILL_PX`]: its corners and
@@ -218,6 +234,59 @@ impl Side {
     }
 }
 
+/// Pixels a part must have changed by for [`Change::is_shadow`] to judge it.
+const SHADOW_PIXELS: usize = 8;
+
+/// The least correlation, in hundredths, of a shadow's pixels with the ground they darken.
+const SHADOW_TEXTURE: u64 = 70;
+
+/// Sums of pixel pairs, for their correlation: at most 2^22 pixels of level 1 (a frame of at
+/// most 4096 x 4096 px), of values below 2^8, keep every sum below 2^38, `n` times a sum below
+/// 2^60 and every product of two such below 2^120: exact in `u128`.
+#[derive(Default)]
+struct Sums {
+    n: usize,
+    a: u64,
+    b: u64,
+    aa: u64,
+    bb: u64,
+    ab: u64,
+}
+
+impl Sums {
+    fn add(&mut self, a: u8, b: u8) {
+        let (a, b) = (u64::from(a), u64::from(b));
+        self.n = self.n.saturating_add(1);
+        self.a = self.a.saturating_add(a);
+        self.b = self.b.saturating_add(b);
+        self.aa = self.aa.saturating_add(a.saturating_mul(a));
+        self.bb = self.bb.saturating_add(b.saturating_mul(b));
+        self.ab = self.ab.saturating_add(a.saturating_mul(b));
+    }
+
+    /// Whether the pairs correlate positively by more than `hundredths` / 100.
+    fn correlates_above(&self, hundredths: u64) -> bool {
+        let n = u128::try_from(self.n).unwrap_or(u128::MAX);
+        let [a, b, aa, bb, ab] = [self.a, self.b, self.aa, self.bb, self.ab].map(u128::from);
+        let var = |squares: u128, sum: u128| {
+            n.saturating_mul(squares)
+                .saturating_sub(sum.saturating_mul(sum))
+        };
+        let (var_a, var_b) = (var(aa, a), var(bb, b));
+        let (products, means) = (n.saturating_mul(ab), a.saturating_mul(b));
+        if products <= means || var_a == 0 || var_b == 0 {
+            return false;
+        }
+        // corr > t  <=>  cov^2 > t^2 var_a var_b (cov > 0).
+        let cov = products.saturating_sub(means);
+        let t = u128::from(hundredths);
+        cov.saturating_mul(cov).saturating_mul(10_000)
+            > t.saturating_mul(t)
+                .saturating_mul(var_a)
+                .saturating_mul(var_b)
+    }
+}
+
 impl Change<'_> {
     /// The values of pixel (`x`, `y`) of level 1 in both frames, when they differ by more
     /// than [`CHANGE_LEVELS`].
@@ -253,6 +322,33 @@ impl Change<'_> {
         }
         let (share, of) = MOST_CHANGED;
         changed.saturating_mul(of) > seen.saturating_mul(share)
+    }
+
+    /// Whether `part` (at full resolution) changed between the frames as a shadow falling on
+    /// the ground or leaving it does: most of its changed pixels darkened or brightened by a
+    /// shadow's factor, and the ground's texture kept under it (the changed pixels' values in
+    /// the two frames correlate by more than [`SHADOW_TEXTURE`]). A walker's dark legs over a
+    /// pale street darken the street by a shadow's factor too, but put their own look in its
+    /// place. False when fewer than [`SHADOW_PIXELS`] pixels changed.
+    fn is_shadow(&self, part: &MotionBox) -> bool {
+        let span = |start: u16, len: u16| {
+            let start = usize::from(start / 2);
+            start..start.saturating_add(usize::from(len.div_ceil(2)))
+        };
+        let mut sums = Sums::default();
+        let mut shadow = 0usize;
+        for y in span(part.y, part.h) {
+            for x in span(part.x, part.w) {
+                if let Some((a, b)) = self.differs(x, y) {
+                    sums.add(a.min(b), a.max(b));
+                    shadow = shadow.saturating_add(usize::from(!self.at(x, y)));
+                }
+            }
+        }
+        let changed = sums.n;
+        changed >= SHADOW_PIXELS
+            && shadow.saturating_mul(2) > changed
+            && sums.correlates_above(SHADOW_TEXTURE)
     }
 
     /// The size of level 1.
@@ -427,6 +523,51 @@ mod tests {
         // The foot's box grew first, over the whole mover: the larger box, its flow kept. A
         // box away from the mover stays as it was.
         assert_eq!((boxes[0].mean_flow, boxes[1]), (foot.mean_flow, hand));
+    }
+
+    /// Textured ground, with a patch of 8 x 8 px at (`left`, 32) that is `patch` of the
+    /// ground's value there.
+    fn feet_frame(left: usize, patch: impl Fn(u8) -> u8) -> [u8; W * H] {
+        core::array::from_fn(|i| {
+            let (x, y) = (i % W, i / W);
+            let ground = 90 + ((x + 2 * y) % 24 * 5) as u8;
+            let on = (left..left + 8).contains(&x) && (32..40).contains(&y);
+            if on {
+                patch(ground)
+            } else {
+                ground
+            }
+        })
+    }
+
+    #[test]
+    fn feet_below_a_body_join_it_and_a_shadow_below_it_does_not() {
+        // A body whose box ends 8 px above the feet: beyond the growth's reach.
+        let body = MotionBox {
+            x: 18,
+            y: 4,
+            w: 14,
+            h: 20,
+            nodes: 6,
+            mean_flow: Point::from_f32(4.0, 0.0),
+        };
+        let feet = part(20, 32, 4.0);
+        let mut boxes = [body, feet];
+        let dark = |_| 20;
+        assert_eq!(
+            grow(&feet_frame(20, dark), &feet_frame(24, dark), &mut boxes),
+            1
+        );
+        assert_eq!((boxes[0].x, boxes[0].y, boxes[0].h), (18, 4, 36));
+        assert_eq!(boxes[0].mean_flow, body.mean_flow);
+        // The same patch 0.6 times the ground below it keeps the ground's texture: a shadow.
+        let shade = |g: u8| (u16::from(g) * 3 / 5) as u8;
+        let mut boxes = [body, feet];
+        assert_eq!(
+            grow(&feet_frame(20, shade), &feet_frame(24, shade), &mut boxes),
+            2
+        );
+        assert_eq!(boxes[0], body);
     }
 
     #[test]

@@ -48,7 +48,9 @@ camera differ by at most a pixel or half the faster one's are parts of one body 
 legs and torso) and are joined into one box. On a still camera each box then grows over the
 pixels connected to it that changed between the two frames by more than 15 grey levels (on
 the half-resolution image; a change by a shadow's factor does not count), which a walker's
-flat coat and trousers do though they give no flow, and takes in the boxes it then overlaps.",
+flat coat and trousers do though they give no flow, and takes in the boxes it then overlaps;
+a box at most half as tall standing below another (a walker's feet, at most half its height
+under it) is joined to it, unless it changed as a shadow does.",
     after_help = "boxes.csv columns:
   frame      the later frame of the pair, counted from 0 (so the first row has frame 1 or
              more)

@@ -240,9 +240,10 @@ const SHADOW_PIXELS: usize = 8;
 /// The least correlation, in hundredths, of a shadow's pixels with the ground they darken.
 const SHADOW_TEXTURE: u64 = 70;
 
-/// Sums of pixel pairs, for their correlation: at most 2^22 pixels of level 1 (a frame of at
-/// most 4096 x 4096 px), of values below 2^8, keep every sum below 2^38, `n` times a sum below
-/// 2^60 and every product of two such below 2^120: exact in `u128`.
+/// Sums of pixel pairs, for their correlation: up to 2^16 pixels of values below 2^8 keep
+/// every sum below 2^32, `n` times a sum below 2^48, and the correlation's products (of two
+/// such, times 10^4) below 2^110: exact in `u128`. A larger part (none that stands below a
+/// body comes near) saturates: a wrong verdict at worst.
 #[derive(Default)]
 struct Sums {
     n: usize,

@@ -237,13 +237,12 @@ impl Side {
 /// Pixels a part must have changed by for [`Change::is_shadow`] to judge it.
 const SHADOW_PIXELS: usize = 8;
 
-/// The least correlation, in hundredths, of a shadow's pixels with the ground they darken.
-const SHADOW_TEXTURE: u64 = 70;
+/// The least correlation of a shadow's pixels with the ground they darken.
+const SHADOW_TEXTURE: f32 = 0.7;
 
 /// Sums of pixel pairs, for their correlation: up to 2^16 pixels of values below 2^8 keep
-/// every sum below 2^32, `n` times a sum below 2^48, and the correlation's products (of two
-/// such, times 10^4) below 2^110: exact in `u128`. A larger part (none that stands below a
-/// body comes near) saturates: a wrong verdict at worst.
+/// every sum below 2^32 and `n` times a sum below 2^48, exact in `u64`; a larger part (none
+/// that stands below a body comes near) saturates, a wrong verdict at worst.
 #[derive(Default)]
 struct Sums {
     n: usize,
@@ -265,26 +264,22 @@ impl Sums {
         self.ab = self.ab.saturating_add(a.saturating_mul(b));
     }
 
-    /// Whether the pairs correlate positively by more than `hundredths` / 100.
-    fn correlates_above(&self, hundredths: u64) -> bool {
-        let n = u128::try_from(self.n).unwrap_or(u128::MAX);
-        let [a, b, aa, bb, ab] = [self.a, self.b, self.aa, self.bb, self.ab].map(u128::from);
-        let var = |squares: u128, sum: u128| {
+    /// Whether the pairs correlate positively by more than `threshold`.
+    fn correlates_above(&self, threshold: f32) -> bool {
+        let n = u64::try_from(self.n).unwrap_or(u64::MAX);
+        let var = |squares: u64, sum: u64| {
             n.saturating_mul(squares)
                 .saturating_sub(sum.saturating_mul(sum))
         };
-        let (var_a, var_b) = (var(aa, a), var(bb, b));
-        let (products, means) = (n.saturating_mul(ab), a.saturating_mul(b));
+        let (var_a, var_b) = (var(self.aa, self.a), var(self.bb, self.b));
+        let (products, means) = (n.saturating_mul(self.ab), self.a.saturating_mul(self.b));
         if products <= means || var_a == 0 || var_b == 0 {
             return false;
         }
-        // corr > t  <=>  cov^2 > t^2 var_a var_b (cov > 0).
-        let cov = products.saturating_sub(means);
-        let t = u128::from(hundredths);
-        cov.saturating_mul(cov).saturating_mul(10_000)
-            > t.saturating_mul(t)
-                .saturating_mul(var_a)
-                .saturating_mul(var_b)
+        // Once a part, in floating point: corr > t  <=>  cov^2 > t^2 var_a var_b (cov > 0).
+        #[allow(clippy::cast_precision_loss)] // a threshold's test: 24 bits are plenty
+        let [cov, var_a, var_b] = [products.saturating_sub(means), var_a, var_b].map(|v| v as f32);
+        cov * cov > threshold * threshold * var_a * var_b
     }
 }
 

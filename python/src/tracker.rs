@@ -163,7 +163,8 @@ pub struct FrameReport {
     dropped: usize,
     /// Dropped by the forward-backward check.
     dropped_fb: usize,
-    /// Dropped by the residual gates (absolute or relative to the frame's median).
+    /// Dropped by the residual gates (absolute, or relative to the frame's median and the
+    /// track's own usual residual).
     dropped_residual: usize,
     /// Dropped because the window no longer matched the track's birth patch.
     dropped_appearance: usize,

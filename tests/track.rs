@@ -1350,7 +1350,8 @@ fn refill_keeps_away_from_where_young_tracks_failed() {
     let (ids_with, patch_with, life_with, refused_with, off_with) = measure(32);
     // Measured: without the cooldown 507 ids, 286 born on the patch, life 16.6 frames; with
     // it 110, 6 and 72.3, with 18 corners refused (the 6 are born as a spot's cooldown ends,
-    // and live one frame). Marking failed spots alone gave 133, 20 and 60.0. Background
+    // and live one frame). Marking failed spots alone gave 133, 20 and 60.0 (before tracks
+    // were also held to their own usual residual, and corners refused at birth). Background
     // track-frames over 1 px: none of 7701 and of 7711.
     assert!(
         patch_with <= 8 && patch_without >= 200,

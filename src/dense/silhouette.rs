@@ -54,7 +54,8 @@ const MOST_GROWTH: usize = 3;
 /// are left, at the front of `boxes` in their order. The changed pixels hold a mover where it
 /// is in both frames; the box stays in the earlier frame, the side that grew ahead of its flow
 /// brought back by it. Then a small box that stands below a larger one, as feet below a
-/// body, is joined to it unless it changed as a shadow does (see the module documentation). A
+/// body, is joined to it unless it changed as a shadow does (see the module documentation),
+/// one join at a time: a body that took its feet is judged by its new height for the next. A
 /// moving camera, a frame pair that changed nearly everywhere, or pyramids without level 1
 /// leave the boxes as they are.
 ///
@@ -95,6 +96,13 @@ const MOST_GROWTH: usize = 3;
 /// let walker = boxes[0];
 /// // Down to the feet, where the walker is in the earlier frame.
 /// assert_eq!((walker.x, walker.y, walker.w, walker.h), (20, 10, 14, 30));
+/// assert_eq!(boxes[1], ground);
+/// // A planted foot's box just below the legs, on ground that did not change, is joined to
+/// // the walker; the box on still ground beside it is not.
+/// let foot = MotionBox { x: 22, y: 42, w: 8, h: 4, nodes: 1, mean_flow: Point::default() };
+/// let mut boxes = [coat, foot, ground];
+/// assert_eq!(grow_over_change(&prev, &next, &mut boxes, 3, &Homography::IDENTITY), 2);
+/// assert_eq!((boxes[0].x, boxes[0].y, boxes[0].w, boxes[0].h), (20, 10, 14, 36));
 /// assert_eq!(boxes[1], ground);
 /// // A camera that pans leaves the boxes as they are.
 /// let mut boxes = [coat, ground];
@@ -264,8 +272,12 @@ impl Sums {
         self.ab = self.ab.saturating_add(a.saturating_mul(b));
     }
 
-    /// Whether the pairs correlate positively by more than `threshold`.
+    /// Whether the pairs correlate positively by more than `threshold` (at least 0).
     fn correlates_above(&self, threshold: f32) -> bool {
+        debug_assert!(
+            threshold >= 0.0,
+            "squared, a negative threshold would flip the test"
+        );
         let n = u64::try_from(self.n).unwrap_or(u64::MAX);
         let var = |squares: u64, sum: u64| {
             n.saturating_mul(squares)
@@ -327,14 +339,11 @@ impl Change<'_> {
     /// pale street darken the street by a shadow's factor too, but put their own look in its
     /// place. False when fewer than [`SHADOW_PIXELS`] pixels changed.
     fn is_shadow(&self, part: &MotionBox) -> bool {
-        let span = |start: u16, len: u16| {
-            let start = usize::from(start / 2);
-            start..start.saturating_add(usize::from(len.div_ceil(2)))
-        };
+        let span = Span::of(part, self.size());
         let mut sums = Sums::default();
         let mut shadow = 0usize;
-        for y in span(part.y, part.h) {
-            for x in span(part.x, part.w) {
+        for y in span.y0..span.y1 {
+            for x in span.x0..span.x1 {
                 if let Some((a, b)) = self.differs(x, y) {
                     sums.add(a.min(b), a.max(b));
                     shadow = shadow.saturating_add(usize::from(!self.at(x, y)));
@@ -522,14 +531,14 @@ mod tests {
     }
 
     /// Textured ground, with a patch of 8 x 8 px at (`left`, 32) that is `patch` of the
-    /// ground's value there.
-    fn feet_frame(left: usize, patch: impl Fn(u8) -> u8) -> [u8; W * H] {
+    /// ground's value there and of the pixel's place in the patch.
+    fn feet_frame(left: usize, patch: impl Fn(u8, (usize, usize)) -> u8) -> [u8; W * H] {
         core::array::from_fn(|i| {
             let (x, y) = (i % W, i / W);
             let ground = 90 + ((x + 2 * y) % 24 * 5) as u8;
             let on = (left..left + 8).contains(&x) && (32..40).contains(&y);
             if on {
-                patch(ground)
+                patch(ground, (x - left, y - 32))
             } else {
                 ground
             }
@@ -549,21 +558,46 @@ mod tests {
         };
         let feet = part(20, 32, 4.0);
         let mut boxes = [body, feet];
-        let dark = |_| 20;
+        let dark = |_, _| 20;
         assert_eq!(
             grow(&feet_frame(20, dark), &feet_frame(24, dark), &mut boxes),
             1
         );
         assert_eq!((boxes[0].x, boxes[0].y, boxes[0].h), (18, 4, 36));
         assert_eq!(boxes[0].mean_flow, body.mean_flow);
+        // Shoes of a texture of their own, about 0.6 times the ground's brightness: a shadow's
+        // factor, but not the ground's look.
+        let shoes = |_, (x, y): (usize, usize)| 62 + ((3 * x + y) % 8 * 3) as u8;
+        let mut boxes = [body, feet];
+        let (a, b) = (feet_frame(20, shoes), feet_frame(24, shoes));
+        assert_eq!(grow(&a, &b, &mut boxes), 1);
         // The same patch 0.6 times the ground below it keeps the ground's texture: a shadow.
-        let shade = |g: u8| (u16::from(g) * 3 / 5) as u8;
+        let shade = |g: u8, _| (u16::from(g) * 3 / 5) as u8;
         let mut boxes = [body, feet];
         assert_eq!(
             grow(&feet_frame(20, shade), &feet_frame(24, shade), &mut boxes),
             2
         );
         assert_eq!(boxes[0], body);
+    }
+
+    #[test]
+    fn pairs_correlate_when_one_follows_the_other() {
+        let sums = |pairs: &[(u8, u8)]| {
+            let mut s = Sums::default();
+            pairs.iter().for_each(|&(a, b)| s.add(a, b));
+            s
+        };
+        // Darker values 0.6 times the brighter ones: a shade over a texture.
+        let shade = [(60, 100), (72, 120), (84, 140), (66, 110), (90, 150)];
+        assert!(sums(&shade).correlates_above(0.7));
+        // The same brighter values under darker ones of their own.
+        let own = [(70, 100), (60, 120), (75, 140), (62, 110), (66, 150)];
+        assert!(!sums(&own).correlates_above(0.7));
+        // Against each other, or without any spread on one side: no correlation.
+        let against = [(90, 100), (80, 120), (70, 140), (85, 110), (60, 150)];
+        assert!(!sums(&against).correlates_above(0.0));
+        assert!(!sums(&[(60, 100), (60, 120), (60, 140)]).correlates_above(0.0));
     }
 
     #[test]

@@ -308,7 +308,7 @@ pub struct Gates {
     /// the frame's median step (on movers, before a still or steadily moving background) are
     /// also judged against their own median when at least five are, and held to the larger
     /// limit: a walker's body bends and blurs, and its tracks' residuals are not the ground's.
-    /// Every track is also allowed this many times its own usual residual
+    /// A track that has made four steps is also allowed this many times its own usual residual
     /// ([`super::Track::usual_residual`]) when that is higher, up to [`Gates::max_residual`]:
     /// a window's texture decides what noise and blur cost it, and what the gate looks for is
     /// a jump above the track's own past. A number >= 0; infinity turns it off.

@@ -613,9 +613,10 @@ fn usual_residual(track: &Track, residual: Q16) -> Q16 {
     Q16::from_bits(usual.saturating_add(change))
 }
 
-/// Steps a track has made before its usual residual says what its window costs it: a
-/// track on a feature that changes faster than it can follow (leaves in the wind, a patch of
-/// water) fails within its first few, before its own limit may let it live on.
+/// Steps a track has made (its age before the step judged) before its usual residual says
+/// what its window costs it: its own limit applies from its fifth step on, so a track on a
+/// feature that changes faster than it can follow (leaves in the wind, a patch of water) fails
+/// within its first few, before that limit may let it live on.
 const USUAL_AFTER: u32 = FAILED_YOUNG;
 
 /// How slowly a track's usual residual follows its steps: each new one weighs 1/8, so that a
@@ -831,6 +832,10 @@ mod tests {
             limits.of_step(&usual(2.5), &still, 2),
             Some(Q16::from_num(7.5))
         );
+        // Before its fifth step a track is held to the frame's limit alone.
+        let aged = |age: u32| Track { age, ..usual(2.0) };
+        assert_eq!(limits.of_step(&aged(3), &still, 1), Some(Q16::from_num(3)));
+        assert_eq!(limits.of_step(&aged(4), &still, 1), Some(Q16::from_num(6)));
         // Without the relative gate, the absolute limit alone.
         let absolute = ResidualLimits::of::<32>(max, None, street(0).iter().copied());
         assert_eq!(absolute.of_step(&usual(2.0), &still, 1), max);

@@ -82,7 +82,7 @@ pub struct TrackerSettings {
     pub min_correlation: Option<f32>,
     /// relative residual gate: a track whose residual is more than this many times the
     /// frame's median residual (at least one grey level), and than this many times its own
-    /// usual residual from its fourth step on, is dropped, >= 0 [default: 3]
+    /// usual residual once it has made four steps, is dropped, >= 0 [default: 3]
     #[arg(long, value_name = "R", value_parser = non_negative)]
     pub residual_ratio: Option<f32>,
     /// relocation limit, px: a track whose birth patch is not found within this distance is

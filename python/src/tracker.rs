@@ -157,6 +157,9 @@ pub struct FrameReport {
     /// Corners not started on this frame: their step from the frame before already failed
     /// the residual gate, as their track would have on its first step.
     refused: usize,
+    /// Tracks revived on this frame: dropped by a gate on a still camera (and counted there),
+    /// then found again at their place with their ids.
+    revived: usize,
     /// True when corners were detected on this frame.
     detected: bool,
     /// Tracks dropped on this frame, all reasons.
@@ -186,6 +189,7 @@ impl FrameReport {
             tracked: r.tracked,
             added: r.added,
             refused: r.refused,
+            revived: r.revived,
             detected: r.detected,
             dropped: r.dropped(),
             dropped_fb: r.dropped_fb,
@@ -209,6 +213,7 @@ impl FrameReport {
         d.set_item("tracked", self.tracked)?;
         d.set_item("added", self.added)?;
         d.set_item("refused", self.refused)?;
+        d.set_item("revived", self.revived)?;
         d.set_item("detected", self.detected)?;
         d.set_item("dropped", self.dropped)?;
         d.set_item("dropped_fb", self.dropped_fb)?;
@@ -223,13 +228,15 @@ impl FrameReport {
 
     fn __repr__(&self) -> String {
         format!(
-            "FrameReport(frame={}, live={}, tracked={}, added={}, refused={}, dropped={} (fb {}, \
-             residual {}, appearance {}, relocation {}, out of frame {}, lost {}))",
+            "FrameReport(frame={}, live={}, tracked={}, added={}, refused={}, revived={}, \
+             dropped={} (fb {}, residual {}, appearance {}, relocation {}, out of frame {}, lost \
+             {}))",
             self.frame,
             self.live,
             self.tracked,
             self.added,
             self.refused,
+            self.revived,
             self.dropped,
             self.dropped_fb,
             self.dropped_residual,
@@ -341,6 +348,7 @@ impl Tracker {
         t.tracked += report.tracked;
         t.added += report.added;
         t.refused += report.refused;
+        t.revived += report.revived;
         t.dropped_fb += report.dropped_fb;
         t.dropped_residual += report.dropped_residual;
         t.dropped_appearance += report.dropped_appearance;
@@ -561,7 +569,7 @@ impl Tracker {
     }
 
     /// Totals over every frame processed: tracks followed and added, corners refused at
-    /// birth, tracks that ended, and drops by gate.
+    /// birth, dropped tracks revived, tracks that ended, and drops by gate.
     #[getter]
     fn totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let t = &self.totals;
@@ -570,6 +578,7 @@ impl Tracker {
         d.set_item("tracked", t.tracked)?;
         d.set_item("added", t.added)?;
         d.set_item("refused", t.refused)?;
+        d.set_item("revived", t.revived)?;
         d.set_item("ended", self.ended)?;
         d.set_item("dropped", t.dropped())?;
         d.set_item("dropped_fb", t.dropped_fb)?;

@@ -522,6 +522,13 @@ pub struct Relocation {
     /// its position (or found only along an edge, where the search does not settle) is
     /// dropped as no longer looking like its feature. A number >= 0; infinity sets no limit.
     pub max_distance: f32,
+    /// Revival window, frames: on a still camera (the frame's median step under 0.1 px), a
+    /// track at least 8 frames old that a gate drops is kept aside for this many frames, and
+    /// revived, with its id, where its birth patch matches again at its place (the appearance
+    /// gate, then located within [`Relocation::max_distance`]): a walker passing over it, a
+    /// leaf swinging back. At most 16 are kept aside, the oldest forgotten first; all are
+    /// forgotten when the camera moves. 0 turns it off.
+    pub revive_within: u16,
 }
 
 impl Relocation {
@@ -530,11 +537,13 @@ impl Relocation {
         every: 8,
         from_age: 32,
         max_distance: 0.75,
+        revive_within: 32,
     };
 }
 
 impl Default for Relocation {
-    /// Every 8 frames (16 on a turned image), tracks at least 32 frames old, within 0.75 px.
+    /// Every 8 frames (16 on a turned image), tracks at least 32 frames old, within 0.75 px;
+    /// dropped tracks revived within 32 frames on a still camera.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -622,6 +631,7 @@ impl TrackerConfig {
             // sub-pixel correction moves little, and the frame is at 94 % of its budget.
             relocation: Relocation {
                 every: 16,
+                revive_within: 0,
                 ..Relocation::DEFAULT
             },
             ..defaults
@@ -752,6 +762,7 @@ impl TrackerConfig {
             fine_search,
             fb_every: gates.fb_every,
             fb_doubt_sq,
+            revive_within: (relocation.revive_within > 0).then_some(relocation.revive_within),
         })
     }
 }
@@ -801,6 +812,8 @@ pub(super) struct Checked {
     pub fb_every: u32,
     /// The doubt distance squared, in squared Q16 units.
     pub fb_doubt_sq: i64,
+    /// How long dropped tracks are kept aside on a still camera, frames; `None` when off.
+    pub revive_within: Option<u16>,
 }
 
 /// When tracks are relocated on their anchor, and how far they may move.

@@ -2,6 +2,7 @@
 
 use super::anchor::{Anchor, Located};
 use super::config::{Checked, Relocate, FAILED_YOUNG};
+use super::revive::SET_ASIDE_FROM_AGE;
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
 use crate::frame::ImageView;
@@ -70,6 +71,7 @@ impl Follow<'_, '_> {
         scratch: &mut [i16],
         report: &mut FrameReport,
         failed_young: &mut dyn FnMut(Point),
+        set_aside: &mut dyn FnMut(Track, &Anchor),
     ) -> Result<StepLimits, LkError> {
         // Forwards first, for every track: the residual gate needs the frame's median.
         let forward = self.forward_all::<N>(tracks, scratch)?;
@@ -116,6 +118,13 @@ impl Follow<'_, '_> {
             let max_residual = limits.of_step(&track, &fwd.step, widen);
             let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
             if let Err(rejection) = verdict {
+                let revivable = self.checked.revive_within.is_some()
+                    && rejection != Rejection::OutOfFrame
+                    && track.age >= SET_ASIDE_FROM_AGE
+                    && limits.is_still();
+                if revivable {
+                    set_aside(track, anchor);
+                }
                 if rejection != Rejection::OutOfFrame && track.age < FAILED_YOUNG {
                     // Where its feature is now, as far as LK saw it.
                     failed_young(match fwd.step.is_tracked() {
@@ -549,6 +558,13 @@ impl ResidualLimits {
         }
     }
 
+    /// Whether the frame's median step is within [`STILL_STEP`] px of none: a still camera.
+    fn is_still(&self) -> bool {
+        let still = i64::from(STILL_STEP.to_bits());
+        self.centre
+            .is_some_and(|c| distance_sq(c, Point::default()) <= still.saturating_mul(still))
+    }
+
     /// The limit of `track`, stepped by `step`: the frame's (or the movers'), `widen` times
     /// as wide, or the ratio times the track's own usual residual when that is higher, within
     /// the absolute limit. A fast turn widens the frame's limit only: widening the track's own
@@ -599,6 +615,12 @@ impl StepLimits {
     pub(super) fn frame_motion(&self) -> Option<Point> {
         self.residual.centre
     }
+
+    /// Whether the frame's median step says the camera is still (within [`STILL_STEP`] px);
+    /// false when too few tracks stepped to say.
+    pub(super) fn is_still(&self) -> bool {
+        self.residual.is_still()
+    }
 }
 
 /// The usual residual of `track` once a step of `residual` is added to it: the step's own on
@@ -623,6 +645,10 @@ const USUAL_AFTER: u32 = FAILED_YOUNG;
 /// track's own limit rises over several frames, not with the jump of an occluder's edge
 /// entering its window.
 const USUAL_RESIDUAL_SHIFT: u32 = 3;
+
+/// The longest median step of a frame whose camera is taken as still, px: well under what a
+/// camera that pans or shakes moves in a frame, and above LK's noise on a still one.
+const STILL_STEP: Q16 = Q16::from_bits(1 << 16 >> 3);
 
 /// How far `step` moves `track`.
 fn displacement(track: &Track, step: &PointTrack) -> Point {

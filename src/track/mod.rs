@@ -18,15 +18,18 @@
 //!    is old enough is first moved to where its birth appearance matches best nearby,
 //!    undoing LK's slow drift, or dropped when that is farther than
 //!    [`Relocation::max_distance`];
-//! 4. when fewer than [`Refill::below`] tracks are left, detects corners on
+//! 4. on a still camera, sets the dropped tracks at least 8 frames old aside, and revives
+//!    those set aside whose birth patch shows again at their place (a walker has passed over
+//!    them), with their ids, for [`Relocation::revive_within`] frames;
+//! 5. when fewer than [`Refill::below`] tracks are left, detects corners on
 //!    pyramid level [`Refill::level`] away from the live tracks, spreads them
 //!    with a [`Grid`](crate::detect::Grid), and starts new tracks up to
 //!    [`TrackerConfig::max_tracks`] where LK accepts the window.
 //!
 //! Memory: the caller's [`TrackerBuffers`] (two pyramids, scratch, candidates), and inside the
 //! tracker 48 bytes per track plus 120 for its anchor (its birth appearance, 49 samples plain and
-//! 49 smoothed, their sums and how the image turned since), 16.8 KB for 100 tracks, and 12 bytes
-//! for each spot the refill keeps away from.
+//! 49 smoothed, their sums and how the image turned since), 16.8 KB for 100 tracks, 2.75 KB for
+//! the 16 tracks set aside to be revived, and 12 bytes for each spot the refill keeps away from.
 //!
 //! ```
 //! use kestrel::detect::Corner;
@@ -86,6 +89,7 @@ mod config;
 mod fingerprint;
 mod follow;
 mod refill;
+mod revive;
 mod turn;
 
 pub use buffers::{detect_scratch_len, tracker_storage_len, TrackerBuffers};
@@ -104,6 +108,7 @@ use fingerprint::Fingerprint;
 use follow::{Follow, StepLimits};
 use heapless::Vec;
 use refill::{Cooling, DetectBuffers, FailedSpots};
+use revive::SetAside;
 
 /// One tracked feature.
 ///
@@ -216,6 +221,9 @@ pub struct FrameReport {
     /// previous frame, failed the residual gate the frame's tracks were held to: a track there
     /// would fail its first step (see [`Refill::cooldown`]).
     pub refused: usize,
+    /// Tracks revived: dropped by a gate on a still camera (and counted there), then found
+    /// again at their place with their ids ([`Relocation::revive_within`]).
+    pub revived: usize,
     /// True when detection ran in this frame.
     pub detected: bool,
 }
@@ -432,6 +440,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             set: TrackSet {
                 tracks: Vec::new(),
                 anchors: Vec::new(),
+                set_aside: SetAside::default(),
                 next_id: 0,
             },
             failed: FailedSpots::new(),
@@ -557,7 +566,10 @@ impl<'a, const N: usize> Tracker<'a, N> {
             predict,
         };
         let TrackSet {
-            tracks, anchors, ..
+            tracks,
+            anchors,
+            set_aside,
+            ..
         } = &mut self.set;
         let failed = &mut self.failed;
         let (frame, cooldown) = (self.next_frame, self.config.refill.cooldown);
@@ -568,6 +580,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 failed.mark(at, frame);
             }
         };
+        let mut keep = |track, anchor: &Anchor| set_aside.keep(track, anchor, frame);
         let limits = follow
             .all(
                 tracks,
@@ -575,6 +588,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 self.buffers.lk_scratch,
                 &mut report,
                 &mut mark,
+                &mut keep,
             )
             .map_err(lk_refusal)?;
         // Most tracks failing at once is the frame's doing (a scene cut, a flat or saturated
@@ -583,6 +597,9 @@ impl<'a, const N: usize> Tracker<'a, N> {
         if most_failed {
             failed.clear();
         }
+        let now = (&next_pyramid.base(), self.next_frame);
+        let still = limits.is_still() && !most_failed;
+        report.revived = revive(&mut self.set, &self.checked, now, still);
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill.below {
@@ -851,6 +868,43 @@ impl<'a, const N: usize> Tracker<'a, N> {
     }
 }
 
+/// Revives into `set` the tracks set aside whose feature shows again at their place in `frame`
+/// (the base of frame `now`) while there is room, or forgets them all when the camera is not
+/// `still`; how many were revived.
+fn revive<const N: usize>(
+    set: &mut TrackSet<N>,
+    checked: &Checked,
+    (frame, now): (&ImageView<'_>, u32),
+    still: bool,
+) -> usize {
+    let TrackSet {
+        tracks,
+        anchors,
+        set_aside,
+        ..
+    } = set;
+    let Some(within) = checked.revive_within.filter(|_| still) else {
+        set_aside.clear();
+        return 0;
+    };
+    let min_correlation = checked.min_correlation.unwrap_or(-1.0);
+    let max_shift_sq = checked.relocate.map_or(i64::MAX, |r| r.max_shift_sq);
+    let mut room = |track: Track, anchor: &Anchor| {
+        if tracks.is_full() || anchors.is_full() {
+            return false;
+        }
+        let pushed = tracks.push(track).is_ok() && anchors.push(*anchor).is_ok();
+        debug_assert!(pushed, "room was checked");
+        pushed
+    };
+    set_aside.revive(
+        frame,
+        (now, within),
+        (min_correlation, max_shift_sq),
+        &mut room,
+    )
+}
+
 /// The half of the ping-pong storage that is not `half` (0 or 1).
 fn other_half(half: usize) -> usize {
     usize::from(half == 0)
@@ -862,6 +916,8 @@ struct TrackSet<const N: usize> {
     tracks: Vec<Track, N>,
     anchors: Vec<Anchor, N>,
     next_id: u32,
+    /// Tracks dropped on a still camera, kept to be revived.
+    set_aside: SetAside,
 }
 
 impl<const N: usize> TrackSet<N> {
@@ -869,6 +925,7 @@ impl<const N: usize> TrackSet<N> {
     fn clear(&mut self) {
         self.tracks.clear();
         self.anchors.clear();
+        self.set_aside.clear();
     }
 
     /// Starts a track at `position` with its anchor; false when the set is full.

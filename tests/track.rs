@@ -507,7 +507,8 @@ fn occluded_background_tracks_are_dropped_not_dragged_along() {
     );
 
     assert_eq!(on.hidden_live, 0, "a covered background track lived on");
-    // Measured: 99.9 % of 7440 track-frames within 2 px, and 100 % of 82 at frame 100 (99.2 %
+    // Measured: 99.4 % of 7454 track-frames within 2 px, and 98.8 % of 80 at frame 100, worst
+    // 4.69 px (99.9 %, 100 % of 82 before tracks were held to their own usual residual; 99.2 %
     // of 8707 without the refill's cooldown, which keeps new tracks off the occluders' paths).
     assert!(on.within_2px >= 0.99);
     assert!(on.final_within_2px >= 0.97);

@@ -602,7 +602,7 @@ fn ground_tracks_a_walker_covers_are_dropped_not_dragged_along() {
     let classic = classic_gates();
     let open = under_walkers(&sequence, &run(&frames, classic), "walkers, FB + residual");
 
-    // Measured: 99.4 % of 5,263 ground track-frames within 1 px (with the tracks a walker
+    // Measured: 99.4 % of 5,290 ground track-frames within 1 px (with the tracks a walker
     // covered revived once it passed), none under a walker, worst 2.49 px (a window beside a
     // walker's edge, pulled in one step and dropped at the next);
     // without the gates 81.8 % of 5,366, worst 28.2 px, 14 under a walker.
@@ -638,7 +638,7 @@ fn ground_tracks_come_back_with_their_ids_once_a_walker_has_passed() {
     };
     let (kept, revived, ids) = measure(32);
     let (without, none, more_ids) = measure(0);
-    // Measured: 104 revived, 145 ids against 158; 5,263 ground track-frames against 4,339,
+    // Measured: 103 revived, 145 ids against 158; 5,290 ground track-frames against 4,339,
     // 99.4 % and 99.3 % within 1 px of their birth, none under a walker.
     assert_eq!(none, 0);
     assert!(revived >= 80, "{revived} revived");

@@ -129,6 +129,7 @@ class FrameReport:
     tracked: int
     added: int
     refused: int
+    revived: int
     detected: bool
     dropped: int
     dropped_fb: int

@@ -177,7 +177,8 @@ pub struct FrameReport {
     dropped_out_of_frame: usize,
     /// Dropped because LK lost it (low texture, no convergence).
     dropped_lost: usize,
-    /// Ids of the tracks that ended on this frame.
+    /// Ids of the tracks that ended on this frame (a track dropped on a still camera may be
+    /// revived later with its id: see `revived`).
     dropped_ids: Vec<u32>,
 }
 

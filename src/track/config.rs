@@ -522,12 +522,15 @@ pub struct Relocation {
     /// its position (or found only along an edge, where the search does not settle) is
     /// dropped as no longer looking like its feature. A number >= 0; infinity sets no limit.
     pub max_distance: f32,
-    /// Revival window, frames: on a still camera (the frame's median step under 0.1 px), a
+    /// Revival window, frames: on a still camera (the frame's median step at most 1/8 px), a
     /// track at least 8 frames old that a gate drops is kept aside for this many frames, and
-    /// revived, with its id, where its birth patch matches again at its place (the appearance
-    /// gate, then located within [`Relocation::max_distance`]): a walker passing over it, a
-    /// leaf swinging back. At most 16 are kept aside, the oldest forgotten first; all are
-    /// forgotten when the camera moves. 0 turns it off.
+    /// revived, with its id, its birth and its age, where its birth patch matches again at its
+    /// place (the appearance gate, when on, then located within [`Relocation::max_distance`],
+    /// whether relocation runs or not) and no live track is nearer than
+    /// [`super::Refill::min_distance`], while fewer than [`super::TrackerConfig::max_tracks`]
+    /// are live: a walker passing over it, a leaf swinging back. At most 16 are kept aside,
+    /// the oldest forgotten first; all are forgotten in a frame whose camera moves, where too
+    /// few tracks stepped to say, or where most tracks failed at once. 0 turns it off.
     pub revive_within: u16,
 }
 
@@ -762,7 +765,10 @@ impl TrackerConfig {
             fine_search,
             fb_every: gates.fb_every,
             fb_doubt_sq,
-            revive_within: (relocation.revive_within > 0).then_some(relocation.revive_within),
+            revive: (relocation.revive_within > 0).then_some(Revive {
+                within: relocation.revive_within,
+                max_shift_sq,
+            }),
         })
     }
 }
@@ -812,8 +818,18 @@ pub(super) struct Checked {
     pub fb_every: u32,
     /// The doubt distance squared, in squared Q16 units.
     pub fb_doubt_sq: i64,
-    /// How long dropped tracks are kept aside on a still camera, frames; `None` when off.
-    pub revive_within: Option<u16>,
+    /// How dropped tracks are revived on a still camera; `None` when off.
+    pub revive: Option<Revive>,
+}
+
+/// How long dropped tracks are kept aside on a still camera, and how far from its place a
+/// track's birth patch may be found for it to be revived.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Revive {
+    /// Frames, at least 1.
+    pub within: u16,
+    /// The relocation limit squared, in squared Q16 units, whether relocation runs or not.
+    pub max_shift_sq: i64,
 }
 
 /// When tracks are relocated on their anchor, and how far they may move.

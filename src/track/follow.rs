@@ -118,7 +118,7 @@ impl Follow<'_, '_> {
             let max_residual = limits.of_step(&track, &fwd.step, widen);
             let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
             if let Err(rejection) = verdict {
-                let revivable = self.checked.revive_within.is_some()
+                let revivable = self.checked.revive.is_some()
                     && rejection != Rejection::OutOfFrame
                     && track.age >= SET_ASIDE_FROM_AGE
                     && limits.is_still();

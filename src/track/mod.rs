@@ -105,10 +105,10 @@ use anchor::Anchor;
 use buffers::StorageParts;
 use config::Checked;
 use fingerprint::Fingerprint;
-use follow::{Follow, StepLimits};
+use follow::{distance_sq, Follow, StepLimits};
 use heapless::Vec;
 use refill::{Cooling, DetectBuffers, FailedSpots};
-use revive::SetAside;
+use revive::{SetAside, Welcome};
 
 /// One tracked feature.
 ///
@@ -161,8 +161,9 @@ pub struct Track {
     pub id: u32,
     /// Position in the latest frame, px.
     pub position: Point,
-    /// Position in the frame before, px (its position, on its first frame): with
-    /// [`Track::position`], the track's correspondence between the two frames.
+    /// Position in the frame before, px (its position, on its first frame and on the frame it
+    /// was revived in): with [`Track::position`], the track's correspondence between the two
+    /// frames.
     pub previous: Point,
     /// Frames the track has been followed through since it was detected (0 on its first frame).
     pub age: u32,
@@ -599,7 +600,8 @@ impl<'a, const N: usize> Tracker<'a, N> {
         }
         let now = (&next_pyramid.base(), self.next_frame);
         let still = limits.is_still() && !most_failed;
-        report.revived = revive(&mut self.set, &self.checked, now, still);
+        let settings = (&self.checked, &self.config);
+        report.revived = revive(&mut self.set, settings, now, still);
         stage_ended(TrackerStage::Follow);
         let half = other_half(previous.half);
         if self.set.tracks.len() < self.config.refill.below {
@@ -708,7 +710,8 @@ impl<'a, const N: usize> Tracker<'a, N> {
 
     /// The correspondences of the latest frame pair, into `pairs` (cleared first): each track
     /// followed into the latest frame, as (where it was in the frame before, where it is now).
-    /// Tracks born in the latest frame have no step and give none. This is what ego-motion
+    /// Tracks born in the latest frame have no step and give none; a track revived in it
+    /// ([`Relocation::revive_within`], a still camera) gives its place twice. This is what ego-motion
     /// ([`crate::ego::Ransac::estimate`]) fits the camera's motion to.
     ///
     /// ```
@@ -873,7 +876,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
 /// `still`; how many were revived.
 fn revive<const N: usize>(
     set: &mut TrackSet<N>,
-    checked: &Checked,
+    (checked, config): (&Checked, &TrackerConfig),
     (frame, now): (&ImageView<'_>, u32),
     still: bool,
 ) -> usize {
@@ -883,25 +886,30 @@ fn revive<const N: usize>(
         set_aside,
         ..
     } = set;
-    let Some(within) = checked.revive_within.filter(|_| still) else {
+    let Some(revive) = checked.revive.filter(|_| still) else {
         set_aside.clear();
         return 0;
     };
     let min_correlation = checked.min_correlation.unwrap_or(-1.0);
-    let max_shift_sq = checked.relocate.map_or(i64::MAX, |r| r.max_shift_sq);
-    let mut room = |track: Track, anchor: &Anchor| {
-        if tracks.is_full() || anchors.is_full() {
-            return false;
+    let spacing = i64::from(config.refill.min_distance) << 16;
+    let mut welcome = |track: Track, anchor: &Anchor| {
+        let near =
+            |t: &Track| distance_sq(t.position, track.position) < spacing.saturating_mul(spacing);
+        if tracks.iter().any(near) {
+            return Welcome::Taken;
+        }
+        if tracks.len() >= config.max_tracks || tracks.is_full() || anchors.is_full() {
+            return Welcome::Full;
         }
         let pushed = tracks.push(track).is_ok() && anchors.push(*anchor).is_ok();
         debug_assert!(pushed, "room was checked");
-        pushed
+        Welcome::Revived
     };
     set_aside.revive(
         frame,
-        (now, within),
-        (min_correlation, max_shift_sq),
-        &mut room,
+        (now, revive.within),
+        (min_correlation, revive.max_shift_sq),
+        &mut welcome,
     )
 }
 

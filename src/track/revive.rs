@@ -44,21 +44,26 @@ impl SetAside {
         self.kept.clear();
     }
 
-    /// Revives into `revive` the tracks set aside before frame `now` whose anchor matches
-    /// `frame` at their place again (at least `min_correlation`, the appearance gate) and is
-    /// located there within `max_shift_sq` (squared Q16 units), while `revive` takes them;
-    /// forgets those set aside more than `within` frames ago. Returns how many were revived.
+    /// Offers `revive` the tracks set aside before frame `now` whose anchor matches `frame`
+    /// at their place again (at least `min_correlation`, the appearance gate) and is located
+    /// there within `max_shift_sq` (squared Q16 units), each moved to where it was found;
+    /// forgets those set aside more than `within` frames ago, and those `revive` revived or
+    /// whose place another track took. Returns how many were revived.
     pub(super) fn revive(
         &mut self,
         frame: &ImageView<'_>,
         (now, within): (u32, u16),
         (min_correlation, max_shift_sq): (f32, i64),
-        revive: &mut dyn FnMut(Track, &Anchor) -> bool,
+        revive: &mut dyn FnMut(Track, &Anchor) -> Welcome,
     ) -> usize {
         let mut revived = 0usize;
         let mut i = 0;
         while let Some(&(track, anchor, since)) = self.kept.get(i) {
             let waited = now.wrapping_sub(since);
+            if waited > u32::from(within) {
+                self.kept.remove(i);
+                continue;
+            }
             let found = || match anchor.locate(frame, track.position, max_shift_sq) {
                 Located::At(found) => Some(found),
                 Located::Lost | Located::OutOfView => None,
@@ -73,17 +78,29 @@ impl SetAside {
                 prediction_error: Q16::MAX,
                 ..track
             };
-            match back {
-                Some(at) if revive(revive_at(at), &anchor) => {
+            let welcome = back.map(|at| revive(revive_at(at), &anchor));
+            match welcome {
+                Some(Welcome::Revived) => {
                     revived = revived.saturating_add(1);
                     self.kept.remove(i);
                 }
-                _ if waited > u32::from(within) => {
+                Some(Welcome::Taken) => {
                     self.kept.remove(i);
                 }
-                _ => i = i.saturating_add(1),
+                Some(Welcome::Full) | None => i = i.saturating_add(1),
             }
         }
         revived
     }
+}
+
+/// What became of a track offered for revival.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Welcome {
+    /// Live again.
+    Revived,
+    /// Another live track is at its place: it is forgotten.
+    Taken,
+    /// No room now: it stays aside.
+    Full,
 }

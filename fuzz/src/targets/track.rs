@@ -343,10 +343,11 @@ impl Model<'_, '_> {
         assert!(tracks.len() <= config.max_tracks && tracks.len() <= N);
         let previous = if start { 0 } else { before.len() };
         assert_eq!(report.tracked + report.dropped(), previous, "{report:?}");
-        assert_eq!(report.live, report.tracked + report.added, "{report:?}");
+        let followed = report.tracked + report.revived;
+        assert_eq!(report.live, followed + report.added, "{report:?}");
         assert!(report.added == 0 || report.detected);
         if !start {
-            assert_eq!(report.detected, report.tracked < config.refill.below);
+            assert_eq!(report.detected, followed < config.refill.below);
         }
         let mut ids = HashSet::new();
         for (i, t) in tracks.iter().enumerate() {
@@ -357,6 +358,14 @@ impl Model<'_, '_> {
             if i < report.tracked {
                 let old = before.iter().find(|b| b.id == t.id).expect("a survivor");
                 assert_eq!((t.age, t.born), (old.age + 1, old.born), "{t:?}");
+            } else if i < followed {
+                // Revived: dropped earlier on a still camera, back with its id and age.
+                assert!(self.seen.contains(&t.id), "revived id {} never seen", t.id);
+                assert!(
+                    !before.iter().any(|b| b.id == t.id),
+                    "revived while live: {t:?}"
+                );
+                assert!(t.age >= 8 && t.born < index, "{t:?}");
             } else {
                 assert!(self.seen.insert(t.id), "id {} reused", t.id);
                 assert_eq!((t.age, t.born, t.residual), (0, index, Q16::ZERO), "{t:?}");

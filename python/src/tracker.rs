@@ -256,7 +256,7 @@ impl FrameReport {
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
 ///         min_correlation=None, residual_ratio=None, max_relocation=None,
-///         relocate_every=None, refill_cooldown=None)
+///         relocate_every=None, refill_cooldown=None, revive_within=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
 /// max_tracks: tracks kept at most, 1 to 1000 (refill below 90 %, or 80 % with the preset).
@@ -267,8 +267,10 @@ impl FrameReport {
 /// The other keywords override the configuration's: LK window (odd, 3-63), coarsest level
 /// (0-7), illumination ("gain_bias" or "plain"), forward-backward gate (px), residual gate
 /// (grey levels), least correlation with the birth patch (-1 to 1), relative residual gate,
-/// relocation limit (px) and period (frames, 0 = never), and the refill's cooldown (frames
-/// during which no track starts near where a young one failed, 0-65535, 0 = none).
+/// relocation limit (px) and period (frames, 0 = never), the refill's cooldown (frames
+/// during which no track starts near where a young one failed, 0-65535, 0 = none), and the
+/// revival window (frames a track dropped on a still camera is kept to be revived with its id
+/// where its birth patch shows again, 0-65535, 0 = never).
 ///
 /// `process(frame)` starts on the first frame and follows the tracks on every later one;
 /// `start(frame)` restarts. Both return a FrameReport. The GIL is released while the tracker
@@ -376,7 +378,7 @@ impl Tracker {
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
         min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None,
-        refill_cooldown=None))]
+        refill_cooldown=None, revive_within=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,
@@ -393,6 +395,7 @@ impl Tracker {
         max_relocation: Option<f64>,
         relocate_every: Option<i64>,
         refill_cooldown: Option<i64>,
+        revive_within: Option<i64>,
     ) -> PyResult<Self> {
         let size = settings::frame_size(width, height)?;
         let preset = match preset {
@@ -430,15 +433,15 @@ impl Tracker {
             }
             other => other.map(|n| n as u32),
         };
-        let refill_cooldown = refill_cooldown
-            .map(|n| {
-                u16::try_from(n).map_err(|_| {
-                    value_error(format!(
-                        "refill_cooldown must be 0 to 65535 frames: got {n}"
-                    ))
-                })
+        let frames = |n: Option<i64>, name: &str| {
+            n.map(|n| {
+                u16::try_from(n)
+                    .map_err(|_| value_error(format!("{name} must be 0 to 65535 frames: got {n}")))
             })
-            .transpose()?;
+            .transpose()
+        };
+        let refill_cooldown = frames(refill_cooldown, "refill_cooldown")?;
+        let revive_within = frames(revive_within, "revive_within")?;
         let settings = TrackerSettings {
             lk: LkSettings {
                 window: window.map(|w| settings::side(w, "window")).transpose()?,
@@ -461,6 +464,7 @@ impl Tracker {
                 .transpose()?,
             relocate_every,
             refill_cooldown,
+            revive_within,
         };
         let mut tracker = Tracker {
             config: None,
@@ -631,6 +635,7 @@ impl Tracker {
         d.set_item("min_correlation", c.gates.min_correlation)?;
         d.set_item("relocate_every", c.relocation.every)?;
         d.set_item("max_relocation", c.relocation.max_distance)?;
+        d.set_item("revive_within", c.relocation.revive_within)?;
         Ok(Some(d))
     }
 

@@ -80,6 +80,31 @@ def test_the_refill_keeps_away_from_where_young_tracks_failed():
     assert refused > 0 and none == 0, (refused, none)
 
 
+def test_tracks_a_passing_occluder_covered_come_back_with_their_ids():
+    # A still scene; a flat grey bar crosses it left to right, covering and uncovering tracks.
+    base = texture(7)
+    frames = []
+    for k in range(60):
+        frame = base.copy()
+        left = 4 * k - 40
+        frame[80:160, max(0, left):max(0, left + 40)] = 128
+        frames.append(frame)
+
+    def run(**keywords):
+        tracker = kestrel.Tracker(**keywords)
+        ids = set()
+        for frame in frames:
+            tracker.process(frame)
+            ids |= set(tracker.ids.tolist())
+        return tracker.totals["revived"], len(ids), tracker.config["revive_within"]
+
+    (revived, ids, within), (none, more_ids, off) = run(), run(revive_within=0)
+    assert (within, off) == (32, 0)
+    # A track the bar covered is revived once it has passed, instead of a new one started.
+    assert revived > 0 and none == 0, (revived, none)
+    assert ids < more_ids, (ids, more_ids)
+
+
 def test_restart_and_flow_sensor_preset():
     frames = sequence(3)
     tracker = kestrel.Tracker(preset="flow_sensor")

@@ -100,6 +100,11 @@ pub struct TrackerSettings {
     /// 0 with the flow-sensor preset]
     #[arg(long, value_name = "F")]
     pub refill_cooldown: Option<u16>,
+    /// revival window, frames: on a still camera a track at least 8 frames old that a gate
+    /// drops is kept aside this long and revived, with its id, where its birth patch shows
+    /// again at its place (0 turns it off) [default: 32; 0 with the flow-sensor preset]
+    #[arg(long, value_name = "F")]
+    pub revive_within: Option<u16>,
 }
 
 impl TrackerSettings {
@@ -118,6 +123,7 @@ impl TrackerSettings {
             relocation: Relocation {
                 max_distance: self.max_relocation.unwrap_or(relocation.max_distance),
                 every: self.relocate_every.unwrap_or(relocation.every),
+                revive_within: self.revive_within.unwrap_or(relocation.revive_within),
                 ..relocation
             },
             refill: Refill {

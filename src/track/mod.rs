@@ -898,12 +898,11 @@ fn revive<const N: usize>(
         if tracks.iter().any(near) {
             return Welcome::Taken;
         }
-        if tracks.len() >= config.max_tracks || tracks.is_full() || anchors.is_full() {
-            return Welcome::Full;
+        if tracks.len() < config.max_tracks && push_track(tracks, anchors, track, anchor) {
+            Welcome::Revived
+        } else {
+            Welcome::Full
         }
-        let pushed = tracks.push(track).is_ok() && anchors.push(*anchor).is_ok();
-        debug_assert!(pushed, "room was checked");
-        Welcome::Revived
     };
     set_aside.revive(
         frame,
@@ -949,12 +948,28 @@ impl<const N: usize> TrackSet<N> {
             velocity: Point::default(),
             prediction_error: Q16::MAX,
         };
-        if self.tracks.push(track).is_err() || self.anchors.push(anchor).is_err() {
+        if !push_track(&mut self.tracks, &mut self.anchors, track, &anchor) {
             return false;
         }
         self.next_id = self.next_id.wrapping_add(1);
         true
     }
+}
+
+/// Appends `track` and its `anchor` to the live tracks; false, and neither appended, when
+/// they are full.
+fn push_track<const N: usize>(
+    tracks: &mut Vec<Track, N>,
+    anchors: &mut Vec<Anchor, N>,
+    track: Track,
+    anchor: &Anchor,
+) -> bool {
+    if tracks.is_full() || anchors.is_full() {
+        return false;
+    }
+    let pushed = tracks.push(track).is_ok() && anchors.push(*anchor).is_ok();
+    debug_assert!(pushed, "room was checked");
+    pushed
 }
 
 /// Detects corners away from the live tracks in `frame`, whose pyramid is in `half` of the

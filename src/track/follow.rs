@@ -108,6 +108,9 @@ impl Follow<'_, '_> {
         let fast = turn.is_fast();
         let widen = if fast { 2 } else { 1 };
 
+        // A camera that is still leaves a dropped track's feature where it was: it may be
+        // revived there.
+        let set_aside_dropped = self.checked.revive.is_some() && limits.is_still();
         let mut kept = 0;
         for i in 0..tracks.len() {
             let (Some(&track), Some(fwd), Some(anchor)) =
@@ -118,10 +121,9 @@ impl Follow<'_, '_> {
             let max_residual = limits.of_step(&track, &fwd.step, widen);
             let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
             if let Err(rejection) = verdict {
-                let revivable = self.checked.revive.is_some()
+                let revivable = set_aside_dropped
                     && rejection != Rejection::OutOfFrame
-                    && track.age >= SET_ASIDE_FROM_AGE
-                    && limits.is_still();
+                    && track.age >= SET_ASIDE_FROM_AGE;
                 if revivable {
                     set_aside(track, anchor);
                 }

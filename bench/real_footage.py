@@ -15,7 +15,10 @@ Clips (real video that installs by package name, or any file given with --clip):
   on a tree in the wind.
 
 Both trackers get the same grey frames and aim for 100 tracks:
-- Kestrel: `host-sim track --max-tracks 100 --stats` with its defaults (window 21, 3 levels);
+- Kestrel: `host-sim track --max-tracks 100 --refill-below 80 --stats`, otherwise with its
+  defaults (window 21, 3 levels): refilled by the same rule as OpenCV's loop below, since a
+  track's life depends on how often new ones start (host-sim's own default, below 90, starts
+  more tracks, each living less);
 - OpenCV: the loop of its lk_track.py sample: calcOpticalFlowPyrLK forward and back (window
   21, max level 3), a track kept when its round trip ends within 1 px, goodFeaturesToTrack
   (quality 0.01, min distance 5, block 7) masked around live tracks to refill up to 100 when
@@ -167,7 +170,7 @@ def kestrel(images, directory, extra=()):
     tracks_csv = os.path.join(directory, "tracks.csv")
     stats = os.path.join(directory, "stats.json")
     run(HOST_SIM, "track", frames, "--out", tracks_csv, "--max-tracks", str(MAX_TRACKS),
-        "--stats", stats, *extra)
+        "--refill-below", str(REFILL_BELOW), "--stats", stats, *extra)
     history, summary = klt.read_kestrel(tracks_csv, stats)
     drops = dict(summary.get("drops", {}))
     if summary.get("recaptured"):

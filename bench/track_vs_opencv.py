@@ -4,8 +4,10 @@
 Both get the same seeded synthetic flights from `host-sim synth-sequence` (101 frames, noise 1
 grey level, exact homography between every pair of frames) and aim for 100 tracks.
 
-- Kestrel: `host-sim track --max-tracks 100 --stats`: the library's time per frame (pyramid,
-  forward and backward LK, gates, detection when refilling), decoding excluded.
+- Kestrel: `host-sim track --max-tracks 100 --refill-below 100 --stats`: refilled whenever
+  fewer than 100 tracks are live, as OpenCV's loop below is, since a track's life depends on
+  how often new ones start; the library's time per frame (pyramid, forward and backward LK,
+  gates, detection when refilling), decoding excluded.
 - OpenCV: the loop of OpenCV's `lk_track.py` sample: calcOpticalFlowPyrLK forward and back
   (window 21, max level 3, as Kestrel's tracker), tracks kept when the round trip ends within
   1 px, and goodFeaturesToTrack (quality 0.01, min distance 5, masked around live tracks) to
@@ -68,7 +70,8 @@ def kestrel(directory, extra=()):
     tracks_csv = os.path.join(directory, "tracks.csv")
     stats = os.path.join(directory, "stats.json")
     run(HOST_SIM, "track", os.path.join(directory, "frames"), "--out", tracks_csv,
-        "--max-tracks", str(MAX_TRACKS), "--stats", stats, *extra)
+        "--max-tracks", str(MAX_TRACKS), "--refill-below", str(MAX_TRACKS), "--stats", stats,
+        *extra)
     history, summary = read_kestrel(tracks_csv, stats)
     return history, summary["median_frame_seconds"], summary.get("drops", {})
 

@@ -6,6 +6,7 @@
 mod common;
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::ffi::OsStr;
 use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -268,6 +269,41 @@ fn stats_report_the_library_time_per_frame() {
     assert_eq!(drops, ended as f64, "{json}");
 }
 
+/// `--refill-below` sets when new corners are detected: at 0 only the first frame starts
+/// tracks, though a fast pan takes some out of the view; by default the lost ones are replaced.
+#[test]
+fn refill_below_sets_when_new_tracks_start() {
+    let scratch = Scratch::new("track-refill-below");
+    let dir = scratch.path("frames");
+    let path = CameraPath {
+        pan: (10.0, 0.0),
+        ..CameraPath::still(((WIDTH - 1) as f64 / 2.0, (HEIGHT - 1) as f64 / 2.0))
+    };
+    let scene = Scene::new(SceneSpec::new(WIDTH, HEIGHT, 11).with_noise(1.0));
+    let frames: Vec<Frame> = Sequence::new(scene, path, 4).frames().collect();
+    write_folder(&dir, &frames);
+    let out = scratch.path("tracks.csv");
+    let born_later = |extra: &[&dyn AsRef<OsStr>]| {
+        let mut args: Vec<&dyn AsRef<OsStr>> = vec![&"track", &dir, &"--out", &out];
+        args.extend_from_slice(extra);
+        let output = host_sim(&args);
+        assert!(output.status.success(), "{output:?}");
+        let rows = rows(&out);
+        let first: BTreeSet<u32> = rows.iter().filter(|r| r.frame == 0).map(|r| r.id).collect();
+        let later: BTreeSet<u32> = rows
+            .iter()
+            .map(|r| r.id)
+            .filter(|id| !first.contains(id))
+            .collect();
+        (first.len(), later.len(), check_rules(&rows, 4))
+    };
+    let (started, later, live) = born_later(&[&"--refill-below", &"0"]);
+    assert!(started > 0 && later == 0, "{started} {later}");
+    assert!(live.last() < live.first(), "{live:?}");
+    let (_, later, _) = born_later(&[]);
+    assert!(later > 0);
+}
+
 /// The preset and the LK and gate flags reach the tracker: the preset's 25 tracks cap the
 /// rows, a flag beside it overrides it, and a bad value is a usage error naming the flag.
 #[test]
@@ -333,6 +369,11 @@ fn the_preset_and_the_tracker_flags_configure_the_run() {
             "--preset",
             "fast",
             "--preset: must be flow-sensor (got fast)",
+        ),
+        (
+            "--refill-below",
+            "101",
+            "--refill-below: must be at most the 100 tracks aimed for (got 101)",
         ),
     ] {
         let output = host_sim(&[&"track", &dir, &"--out", &out, &flag, &value]);

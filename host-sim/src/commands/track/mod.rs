@@ -86,9 +86,29 @@ pub struct TrackOptions {
     pub stats: Option<PathBuf>,
 }
 
+/// Tracks aimed for without `--max-tracks` or `--preset`.
+const DEFAULT_MAX_TRACKS: usize = 100;
+
 fn max_tracks(text: &str) -> Result<usize, String> {
     let range = |n| (1..=MAX_TRACKS as i64).contains(&n);
     values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
+}
+
+/// `--refill-below` within the tracks aimed for: checked before any file is touched.
+fn check_refill_below(options: &TrackOptions) -> Result<(), CommandError> {
+    let Some(below) = options.settings.refill_below else {
+        return Ok(());
+    };
+    let max_tracks = match options.preset {
+        Some(preset) => preset.config(options.max_tracks).max_tracks,
+        None => options.max_tracks.unwrap_or(DEFAULT_MAX_TRACKS),
+    };
+    match below <= max_tracks {
+        true => Ok(()),
+        false => Err(CommandError::Usage(format!(
+            "--refill-below: must be at most the {max_tracks} tracks aimed for (got {below})"
+        ))),
+    }
 }
 
 impl From<TrackingFailure> for CommandError {
@@ -104,6 +124,7 @@ impl From<TrackingFailure> for CommandError {
 /// is the error. Nothing is committed when no frame could be read, or when writing the CSV
 /// itself failed (it could end in the middle of a frame).
 pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
+    check_refill_below(options)?;
     let out = AtomicFile::create(&options.out)?;
     let stats = options
         .stats
@@ -124,7 +145,11 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let configure = |width, height| {
         let base = match options.preset {
             Some(preset) => preset.config(options.max_tracks),
-            None => config_for(width, height, options.max_tracks.unwrap_or(100)),
+            None => config_for(
+                width,
+                height,
+                options.max_tracks.unwrap_or(DEFAULT_MAX_TRACKS),
+            ),
         };
         options.settings.apply(base)
     };

@@ -100,6 +100,11 @@ pub struct TrackerSettings {
     /// 0 with the flow-sensor preset]
     #[arg(long, value_name = "F")]
     pub refill_cooldown: Option<u16>,
+    /// refill threshold: new corners are detected when fewer than this many tracks are live
+    /// after a frame, 0 to --max-tracks (0 detects on the first frame only) [default: nine
+    /// tenths of --max-tracks; four fifths with the flow-sensor preset]
+    #[arg(long, value_name = "N")]
+    pub refill_below: Option<usize>,
     /// revival window, frames: on a still camera a track at least 8 frames old that a gate
     /// drops is kept aside this long and revived, with its id, where its birth patch shows
     /// again at its place (0 turns it off) [default: 32; 0 with the flow-sensor preset]
@@ -128,6 +133,7 @@ impl TrackerSettings {
             },
             refill: Refill {
                 cooldown: self.refill_cooldown.unwrap_or(refill.cooldown),
+                below: self.refill_below.unwrap_or(refill.below),
                 ..refill
             },
             ..config

@@ -161,6 +161,7 @@ class Tracker:
         max_relocation: Optional[float] = None,
         relocate_every: Optional[int] = None,
         refill_cooldown: Optional[int] = None,
+        refill_below: Optional[int] = None,
         revive_within: Optional[int] = None,
     ) -> None: ...
     def process(self, frame: Frame) -> FrameReport: ...

@@ -256,10 +256,13 @@ impl FrameReport {
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
 ///         min_correlation=None, residual_ratio=None, max_relocation=None,
-///         relocate_every=None, refill_cooldown=None, revive_within=None)
+///         relocate_every=None, refill_cooldown=None, refill_below=None, revive_within=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
-/// max_tracks: tracks kept at most, 1 to 1000 (refill below 90 %, or 80 % with the preset).
+/// max_tracks: tracks kept at most, 1 to 1000.
+/// refill_below: new corners are detected when fewer tracks than this are live after a frame,
+///     0 to max_tracks (0: on the first frame only); None: 90 % of max_tracks, 80 % with the
+///     preset.
 /// preset: None (host-sim's tracking settings for the frame size: a 21 px window, levels
 ///     0-3, Shi-Tomasi corners on level 1 bucketed by a grid shaped like the frame), or
 ///     "flow_sensor" (TrackerConfig::flow_sensor(): 25 tracks, 7 px windows on two levels of
@@ -378,7 +381,7 @@ impl Tracker {
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
         min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None,
-        refill_cooldown=None, revive_within=None))]
+        refill_cooldown=None, refill_below=None, revive_within=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,
@@ -395,6 +398,7 @@ impl Tracker {
         max_relocation: Option<f64>,
         relocate_every: Option<i64>,
         refill_cooldown: Option<i64>,
+        refill_below: Option<i64>,
         revive_within: Option<i64>,
     ) -> PyResult<Self> {
         let size = settings::frame_size(width, height)?;
@@ -417,6 +421,14 @@ impl Tracker {
                 "max_tracks must be 1 to {MAX_TRACKS}: got {max_tracks}"
             )));
         }
+        let refill_below = match refill_below {
+            Some(n) if !(0..=max_tracks).contains(&n) => {
+                return Err(value_error(format!(
+                    "refill_below must be 0 to max_tracks, {max_tracks}: got {n}"
+                )))
+            }
+            other => other.map(|n| n as usize),
+        };
         let correlation = match min_correlation {
             Some(c) if !(-1.0..=1.0).contains(&c) => {
                 return Err(value_error(format!(
@@ -464,6 +476,7 @@ impl Tracker {
                 .transpose()?,
             relocate_every,
             refill_cooldown,
+            refill_below,
             revive_within,
         };
         let mut tracker = Tracker {

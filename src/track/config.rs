@@ -420,6 +420,14 @@ pub struct Refill {
     /// most of the tracks a still camera over a street starts after its first frame are on
     /// walkers and end on their first step.
     pub cooldown: u16,
+    /// On a camera that moves, frames: a corner that the frame's median step would carry to
+    /// within `border` of the frame's edge in fewer than this many frames starts no track
+    /// (the step taken at most a quarter of the frame across, so that a fast pan still
+    /// spreads its tracks). Such a track would live a few frames and its slot would be
+    /// refilled soon after, while a corner deeper in the view is followed for as long as the
+    /// view keeps it. Only when the median step is at least half a pixel: a still camera's
+    /// median step is noise, and a corner by the edge lives as long as any. 0 turns it off.
+    pub leaving_within: u16,
 }
 
 /// A track that fails a gate younger than this many frames marks its spot for
@@ -442,6 +450,7 @@ impl Refill {
             border: 8,
             min_distance: 5,
             cooldown: 32,
+            leaving_within: 20,
         }
     }
 }
@@ -449,7 +458,7 @@ impl Refill {
 impl Default for Refill {
     /// Below 80 tracks, [`Detector::default`] on pyramid level 1, at most 3 corners in each
     /// cell of an 8 x 6 grid, 8 px from the edges and 5 px apart, none for 32 frames near where
-    /// a young track failed.
+    /// a young track failed, none that a moving camera takes out of the view within 20 frames.
     fn default() -> Self {
         Self::with(Detector::default())
     }
@@ -623,6 +632,7 @@ impl TrackerConfig {
             refill: Refill {
                 below: 20,
                 cooldown: 0,
+                leaving_within: 0,
                 grid: Grid {
                     cols: 5,
                     rows: 5,

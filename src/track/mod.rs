@@ -472,7 +472,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
         self.set.clear();
         self.failed.clear();
         let mut report = FrameReport::default();
-        self.refill((frame, half), None, &mut report)?;
+        self.refill((frame, half), (None, None), &mut report)?;
         Ok(self.finish_frame(&frame, half, report))
     }
 
@@ -613,7 +613,9 @@ impl<'a, const N: usize> Tracker<'a, N> {
                 limits,
                 predict,
             });
-            self.refill((next, half), earlier, &mut report)?;
+            // Nor does its median step say where the camera goes.
+            let motion = limits.frame_motion().filter(|_| !most_failed);
+            self.refill((next, half), (earlier, motion), &mut report)?;
             stage_ended(TrackerStage::Refill);
         }
         let report = self.finish_frame(&next, half, report);
@@ -823,11 +825,12 @@ impl<'a, const N: usize> Tracker<'a, N> {
 
     /// Detects new tracks in `frame`, whose pyramid was just built into `half` of the storage;
     /// with `earlier`, each must have arrived from that frame as a track would have, or its
-    /// spot cools down.
+    /// spot cools down; with the frame's median step `motion`, none starts where the camera's
+    /// motion soon takes it out of the view.
     fn refill(
         &mut self,
         (frame, half): (ImageView<'_>, usize),
-        earlier: Option<Earlier<'_>>,
+        (earlier, motion): (Option<Earlier<'_>>, Option<Point>),
         report: &mut FrameReport,
     ) -> Result<(), TrackerError> {
         let set = &mut self.set;
@@ -842,6 +845,7 @@ impl<'a, const N: usize> Tracker<'a, N> {
             live: &live,
             room,
             earlier,
+            motion,
         };
         let mut adopt = |position, anchor| set.adopt(position, anchor, born);
         start_tracks(
@@ -993,6 +997,7 @@ fn start_tracks(
         live,
         room,
         earlier,
+        motion,
     } = birth;
     let levels = config.pyramid_levels();
     let StorageParts {
@@ -1033,6 +1038,10 @@ fn start_tracks(
     for corner in corners {
         if started >= room {
             break;
+        }
+        let leaving = |m| refill::leaves_soon(&config.refill, corner.position, m, size);
+        if motion.is_some_and(leaving) {
+            continue;
         }
         let anchor = newborn(checked, &pyramid, corner.position, buffers.lk_scratch)?;
         let Some(anchor) = anchor else {
@@ -1104,6 +1113,8 @@ struct Birth<'c> {
     room: usize,
     /// The frame before, when new tracks must have arrived from it.
     earlier: Option<Earlier<'c>>,
+    /// The frame's median step, when the tracks said it: where the view is going.
+    motion: Option<Point>,
 }
 
 /// The frame before the one new tracks start in, the residual limits its step held the

@@ -78,6 +78,43 @@ pub(super) fn new_corners<'b>(
     Ok(spaced.get(..selected).unwrap_or(&[]))
 }
 
+/// The least median step, px (squared, in squared Q16 units), at which corners about to leave
+/// the view are passed over ([`Refill::leaving_within`]): half a pixel.
+const LEAVING_MIN_STEP_SQ: i64 = 1 << 30;
+
+/// Whether a corner at `p` would come within `refill.border` px of the edge of a `width` x
+/// `height` frame in fewer than [`Refill::leaving_within`] frames of `motion` (the frame's
+/// median step), taken at most a quarter of the frame across; false when `motion` is under
+/// half a pixel.
+pub(super) fn leaves_soon(
+    refill: &Refill,
+    p: Point,
+    motion: Point,
+    (width, height): (usize, usize),
+) -> bool {
+    let (mx, my) = (i64::from(motion.x.to_bits()), i64::from(motion.y.to_bits()));
+    let moving = mx.saturating_mul(mx).saturating_add(my.saturating_mul(my)) >= LEAVING_MIN_STEP_SQ;
+    if refill.leaving_within == 0 || !moving {
+        return false;
+    }
+    let frames = i64::from(refill.leaving_within);
+    let border = i64::from(refill.border) << 16;
+    let stays = |at: i32, step: i64, side: usize| {
+        let side = i64::try_from(side).unwrap_or(i64::MAX);
+        let most = side.saturating_mul(1 << 14);
+        let to = i64::from(at).saturating_add(
+            step.saturating_mul(frames)
+                .clamp(most.saturating_neg(), most),
+        );
+        let last = side
+            .saturating_sub(1)
+            .saturating_mul(1 << 16)
+            .saturating_sub(border);
+        (border..=last).contains(&to)
+    };
+    !(stays(p.x.to_bits(), mx, width) && stays(p.y.to_bits(), my, height))
+}
+
 /// Where young tracks failed lately, whatever the tracker's capacity: refill keeps away from
 /// them, and marks the corners it refuses.
 pub(super) trait Cooling {
@@ -202,6 +239,42 @@ mod tests {
         assert_eq!(failed.spots(), &[(at(4.0), u32::MAX)]);
         failed.expire(0, 0);
         assert!(failed.spots().is_empty());
+    }
+
+    #[test]
+    fn corners_a_moving_camera_soon_takes_out_of_the_view_leave_soon() {
+        let refill = Refill::default();
+        let size = (320, 240);
+        let leaves = |x: f32, y: f32, dx: f32, dy: f32| {
+            leaves_soon(
+                &refill,
+                Point::from_f32(x, y),
+                Point::from_f32(dx, dy),
+                size,
+            )
+        };
+        // 2 px a frame to the right: 20 frames carry a corner 40 px, up to 8 px from the edge.
+        assert!(leaves(272.0, 100.0, 2.0, 0.0));
+        assert!(!leaves(270.0, 100.0, 2.0, 0.0));
+        // Towards the top-left, on either axis.
+        assert!(leaves(100.0, 30.0, -1.0, -1.5));
+        assert!(!leaves(100.0, 40.0, -1.0, -1.5));
+        // Under half a pixel a frame the camera is taken as still.
+        assert!(!leaves(310.0, 100.0, 0.45, 0.0));
+        // A fast pan is taken a quarter of the frame across at most: 80 px, not 200.
+        assert!(!leaves(150.0, 100.0, 10.0, 0.0));
+        assert!(leaves(240.0, 100.0, 10.0, 0.0));
+        // Off: nothing leaves.
+        let off = Refill {
+            leaving_within: 0,
+            ..refill
+        };
+        assert!(!leaves_soon(
+            &off,
+            Point::from_f32(310.0, 100.0),
+            Point::from_f32(5.0, 0.0),
+            size
+        ));
     }
 
     #[test]

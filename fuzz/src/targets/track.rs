@@ -184,6 +184,8 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
             min_distance: c.min_distance,
             // The window's quotient: no cooldown, or 8-24 frames of it.
             cooldown: u16::from(c.window / 70) * 8,
+            // The border's quotient: none, or 10-30 frames.
+            leaving_within: (c.border / 50 % 4) * 10,
         },
         // More quotients: relocation every 0-12 frames from age 0-12, limits of 0-6 px in
         // quarters, and NaN at the top.

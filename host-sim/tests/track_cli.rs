@@ -346,6 +346,10 @@ fn the_preset_and_the_tracker_flags_configure_the_run() {
         &"plain",
         &"--fb-threshold",
         &"0.5",
+        &"--leaving-within",
+        &"0",
+        &"--refill-below",
+        &"50",
     ]);
     assert!(firmware.status.success(), "{firmware:?}");
     for (flag, value, says) in [

@@ -162,6 +162,7 @@ class Tracker:
         relocate_every: Optional[int] = None,
         refill_cooldown: Optional[int] = None,
         refill_below: Optional[int] = None,
+        leaving_within: Optional[int] = None,
         revive_within: Optional[int] = None,
     ) -> None: ...
     def process(self, frame: Frame) -> FrameReport: ...

@@ -256,7 +256,8 @@ impl FrameReport {
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
 ///         min_correlation=None, residual_ratio=None, max_relocation=None,
-///         relocate_every=None, refill_cooldown=None, refill_below=None, revive_within=None)
+///         relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None,
+///         revive_within=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
 /// max_tracks: tracks kept at most, 1 to 1000.
@@ -271,7 +272,9 @@ impl FrameReport {
 /// (0-7), illumination ("gain_bias" or "plain"), forward-backward gate (px), residual gate
 /// (grey levels), least correlation with the birth patch (-1 to 1), relative residual gate,
 /// relocation limit (px) and period (frames, 0 = never), the refill's cooldown (frames
-/// during which no track starts near where a young one failed, 0-65535, 0 = none), and the
+/// during which no track starts near where a young one failed, 0-65535, 0 = none), the
+/// frames within which a moving camera takes a corner out of the view for it to start no track
+/// (0-65535, 0 = every corner starts), and the
 /// revival window (frames a track dropped on a still camera is kept to be revived with its id
 /// where its birth patch shows again, 0-65535, 0 = never).
 ///
@@ -381,7 +384,7 @@ impl Tracker {
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
         min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None,
-        refill_cooldown=None, refill_below=None, revive_within=None))]
+        refill_cooldown=None, refill_below=None, leaving_within=None, revive_within=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,
@@ -399,6 +402,7 @@ impl Tracker {
         relocate_every: Option<i64>,
         refill_cooldown: Option<i64>,
         refill_below: Option<i64>,
+        leaving_within: Option<i64>,
         revive_within: Option<i64>,
     ) -> PyResult<Self> {
         let size = settings::frame_size(width, height)?;
@@ -453,6 +457,7 @@ impl Tracker {
             .transpose()
         };
         let refill_cooldown = frames(refill_cooldown, "refill_cooldown")?;
+        let leaving_within = frames(leaving_within, "leaving_within")?;
         let revive_within = frames(revive_within, "revive_within")?;
         let settings = TrackerSettings {
             lk: LkSettings {
@@ -477,6 +482,7 @@ impl Tracker {
             relocate_every,
             refill_cooldown,
             refill_below,
+            leaving_within,
             revive_within,
         };
         let mut tracker = Tracker {
@@ -648,6 +654,7 @@ impl Tracker {
         d.set_item("min_correlation", c.gates.min_correlation)?;
         d.set_item("relocate_every", c.relocation.every)?;
         d.set_item("max_relocation", c.relocation.max_distance)?;
+        d.set_item("leaving_within", c.refill.leaving_within)?;
         d.set_item("revive_within", c.relocation.revive_within)?;
         Ok(Some(d))
     }

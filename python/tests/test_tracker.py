@@ -3,7 +3,7 @@
 import numpy as np
 
 import kestrel
-from conftest import shifted, texture
+from conftest import W, shifted, texture
 
 
 def sequence(n, step=(1.2, 0.3), seed=9):
@@ -119,6 +119,28 @@ def test_refill_below_sets_when_new_tracks_start():
     assert (below, zero) == (90, 0)
     assert first_only == 100 and fewer < 100, (first_only, fewer)
     assert added > first_only and live > fewer, (added, live)
+
+
+def test_corners_a_pan_soon_takes_out_of_the_view_start_no_track():
+    # 4 px a frame to the right: 20 frames take a corner 80 px (a quarter of the width).
+    frames = sequence(30, step=(4.0, 0.0))
+
+    def born_at(**keywords):
+        tracker = kestrel.Tracker(**keywords)
+        xs = []
+        for k, frame in enumerate(frames):
+            tracker.process(frame)
+            if k > 0:
+                xs += tracker.positions[tracker.born == k][:, 0].tolist()
+        return np.array(xs), tracker.config["leaving_within"]
+
+    (xs, within), (every_x, off) = born_at(), born_at(leaving_within=0)
+    assert (within, off) == (20, 0)
+    # None starts within 80 px of the 8 px border on the right; with every corner started,
+    # some do. Measured: 34 tracks started after frame 0 either way, rightmost at x = 170
+    # and x = 310.
+    assert len(xs) > 0 and xs.max() <= W - 1 - 8 - 80, xs.max()
+    assert every_x.max() > W - 1 - 8 - 80, every_x.max()
 
 
 def test_restart_and_flow_sensor_preset():

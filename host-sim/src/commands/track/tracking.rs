@@ -105,6 +105,11 @@ pub struct TrackerSettings {
     /// tenths of --max-tracks; four fifths with the flow-sensor preset]
     #[arg(long, value_name = "N")]
     pub refill_below: Option<usize>,
+    /// on a camera that moves half a pixel a frame or more, no track starts where the frame's
+    /// median step takes it out of the view within this many frames (0 turns it off)
+    /// [default: 20; 0 with the flow-sensor preset]
+    #[arg(long, value_name = "F")]
+    pub leaving_within: Option<u16>,
     /// revival window, frames: on a still camera a track at least 8 frames old that a gate
     /// drops is kept aside this long and revived, with its id, where its birth patch shows
     /// again at its place (0 turns it off) [default: 32; 0 with the flow-sensor preset]
@@ -134,6 +139,7 @@ impl TrackerSettings {
             refill: Refill {
                 cooldown: self.refill_cooldown.unwrap_or(refill.cooldown),
                 below: self.refill_below.unwrap_or(refill.below),
+                leaving_within: self.leaving_within.unwrap_or(refill.leaving_within),
                 ..refill
             },
             ..config

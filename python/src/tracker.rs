@@ -292,7 +292,11 @@ pub struct Tracker {
     live: Option<Live>,
     frames: u64,
     totals: Report,
+    /// Tracks that ended and have not come back (a revived track ended once and is live again).
     ended: u64,
+    /// The newest id seen: ids are never reused, so a live id at or below it that was not
+    /// live a frame before is a revived track.
+    newest_id: Option<u32>,
 }
 
 impl Tracker {
@@ -351,8 +355,14 @@ impl Tracker {
             before.difference(&after).copied().collect()
         };
         dropped_ids.sort_unstable();
+        let newest = self.newest_id;
+        let revived = after
+            .difference(&before)
+            .filter(|&&id| newest.is_some_and(|n| id <= n))
+            .count();
+        self.newest_id = after.iter().copied().max().max(newest);
         self.frames += 1;
-        self.ended += dropped_ids.len() as u64;
+        self.ended = (self.ended + dropped_ids.len() as u64).saturating_sub(revived as u64);
         let t = &mut self.totals;
         t.tracked += report.tracked;
         t.added += report.added;
@@ -495,6 +505,7 @@ impl Tracker {
             frames: 0,
             totals: Report::default(),
             ended: 0,
+            newest_id: None,
         };
         if let Some((w, h)) = size {
             // Made now, so that settings the library refuses raise here.
@@ -593,7 +604,8 @@ impl Tracker {
     }
 
     /// Totals over every frame processed: tracks followed and added, corners refused at
-    /// birth, dropped tracks revived, tracks that ended, and drops by gate.
+    /// birth, dropped tracks revived, tracks that ended and did not come back, and drops by
+    /// gate (a revived track counts again each time it is dropped).
     #[getter]
     fn totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let t = &self.totals;

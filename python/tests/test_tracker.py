@@ -96,6 +96,8 @@ def test_tracks_a_passing_occluder_covered_come_back_with_their_ids():
         for frame in frames:
             tracker.process(frame)
             ids |= set(tracker.ids.tolist())
+        # A revived track is live again: it has not ended.
+        assert tracker.totals["ended"] == len(ids - set(tracker.ids.tolist()))
         return tracker.totals["revived"], len(ids), tracker.config["revive_within"]
 
     (revived, ids, within), (none, more_ids, off) = run(), run(revive_within=0)

@@ -210,18 +210,22 @@ fn max_tracks_caps_the_rows_of_every_frame() {
     );
 }
 
-#[test]
-fn stats_report_the_library_time_per_frame() {
-    let scratch = Scratch::new("track-stats");
-    let dir = scratch.path("frames");
-    // A fast pan, so that tracks leave the view and the drops have something to count.
+/// `count` frames of a camera panning 10 px a frame: tracks leave the view.
+fn fast_pan(count: usize) -> Vec<Frame> {
     let path = CameraPath {
         pan: (10.0, 0.0),
         ..CameraPath::still(((WIDTH - 1) as f64 / 2.0, (HEIGHT - 1) as f64 / 2.0))
     };
     let scene = Scene::new(SceneSpec::new(WIDTH, HEIGHT, 11).with_noise(1.0));
-    let frames: Vec<Frame> = Sequence::new(scene, path, 3).frames().collect();
-    write_folder(&dir, &frames);
+    Sequence::new(scene, path, count).frames().collect()
+}
+
+#[test]
+fn stats_report_the_library_time_per_frame() {
+    let scratch = Scratch::new("track-stats");
+    let dir = scratch.path("frames");
+    // Tracks leave the view, so that the drops have something to count.
+    write_folder(&dir, &fast_pan(3));
     let (out, stats) = (scratch.path("tracks.csv"), scratch.path("s.json"));
     let output = host_sim(&[&"track", &dir, &"--out", &out, &"--stats", &stats]);
     assert!(output.status.success());
@@ -275,13 +279,7 @@ fn stats_report_the_library_time_per_frame() {
 fn refill_below_sets_when_new_tracks_start() {
     let scratch = Scratch::new("track-refill-below");
     let dir = scratch.path("frames");
-    let path = CameraPath {
-        pan: (10.0, 0.0),
-        ..CameraPath::still(((WIDTH - 1) as f64 / 2.0, (HEIGHT - 1) as f64 / 2.0))
-    };
-    let scene = Scene::new(SceneSpec::new(WIDTH, HEIGHT, 11).with_noise(1.0));
-    let frames: Vec<Frame> = Sequence::new(scene, path, 4).frames().collect();
-    write_folder(&dir, &frames);
+    write_folder(&dir, &fast_pan(4));
     let out = scratch.path("tracks.csv");
     let born_later = |extra: &[&dyn AsRef<OsStr>]| {
         let mut args: Vec<&dyn AsRef<OsStr>> = vec![&"track", &dir, &"--out", &out];

@@ -58,6 +58,11 @@ const RESAMPLING_SHIFT: Q16 = Q16::from_bits(1 << 15);
 /// mostly noise, and a track on it is judged as on a patch of half that correlation.
 const MIN_EXPECTED_SQ: f32 = 0.25;
 
+/// How much better than on the plain grid, as a squared correlation, the patch must match on
+/// the turned grid for an anchor to keep turning ([`Anchor::settle_turn`]): 0.1, or about 0.05
+/// of correlation near 1.
+const TURN_MARGIN_SQ: f32 = 0.1;
+
 /// Every sample of the patch, one bit each.
 const ALL_SAMPLES: u64 = (1 << SAMPLES) - 1;
 
@@ -82,6 +87,8 @@ pub(super) struct Anchor {
     /// (the lower of across and down, 0 when negative): what resampling alone leaves a
     /// correct track of this texture.
     resampled_sq: f32,
+    /// False once [`Anchor::settle_turn`] found the summed turn wrong: it no longer turns.
+    turns: bool,
 }
 
 impl Anchor {
@@ -105,17 +112,40 @@ impl Anchor {
             smooth,
             turned: Turn::NONE,
             resampled_sq,
+            turns: true,
         }
     }
 
-    /// Turns the anchor with the frame it moved into.
+    /// Turns the anchor with the frame it moved into, unless it was settled unturned.
     pub(super) fn turn(&mut self, frame: Turn) {
-        self.turned = self.turned.then(frame);
+        if self.turns {
+            self.turned = self.turned.then(frame);
+        }
     }
 
-    /// Compares the anchor unturned from now on.
-    pub(super) fn turn_back(&mut self) {
-        self.turned = Turn::NONE;
+    /// Checks the turn summed since the anchor's birth against `frame` at the track's
+    /// `position`: when the patch sampled on the turned grid does not match the anchor clearly
+    /// better (by [`TURN_MARGIN_SQ`]) than on the plain grid, the turn is taken for the sum of the
+    /// frames' errors, not the feature's: the anchor is compared unturned from then on.
+    ///
+    /// A frame's similarity is the image's turn only on average (a tilted ground zooms more at
+    /// one edge than at the other), and its small errors add up over a long life: on a camera
+    /// that circles without turning, old patches turned by that sum stop matching their
+    /// features. On a camera that yaws, the sum is the feature's turn, and comparing the patch
+    /// unturned drops the track, or relocates it off its feature.
+    pub(super) fn settle_turn(&mut self, frame: &ImageView<'_>, position: Point) {
+        if self.turned.is_negligible() {
+            return;
+        }
+        let correlation_sq = |(now, _): ([u16; SAMPLES], u64)| {
+            Moments::of(&self.samples, self.sums, &now).correlation_sq()
+        };
+        let turned = correlation_sq(turned_patch(frame, position, self.turned));
+        let plain = correlation_sq(patch(frame, position));
+        if turned <= plain + TURN_MARGIN_SQ {
+            self.turned = Turn::NONE;
+            self.turns = false;
+        }
     }
 
     /// True when the image has turned or zoomed since the anchor was captured by more than a
@@ -748,6 +778,44 @@ mod tests {
         // a gate of 0.5.
         assert!(fine_anchor.matches(&fine, half_off, 0.95));
         assert!(!fine_anchor.matches(&fine, Point::from_f32(23.0, 20.0), 0.5));
+    }
+
+    /// A smooth texture turned by `radians` about the middle of the frame.
+    fn turned_scene(radians: f32) -> [u8; 48 * 48] {
+        let (c, s) = (radians.cos(), radians.sin());
+        core::array::from_fn(|i| {
+            let (u, v) = ((i % 48) as f32 - 24.0, (i / 48) as f32 - 24.0);
+            // The point of the texture this pixel sees.
+            let (x, y) = (c * u + s * v, c * v - s * u);
+            (128.0 + 40.0 * (0.5 * x).sin() * (0.35 * y).cos() + 30.0 * (0.3 * x - 0.45 * y).sin())
+                as u8
+        })
+    }
+
+    #[test]
+    fn a_summed_turn_is_kept_where_the_image_turned_and_dropped_where_it_did_not() {
+        let centre = Point::from_f32(24.0, 24.0);
+        let upright = turned_scene(0.0);
+        let turned = turned_scene(0.2);
+        let upright = ImageView::packed(&upright, 48, 48).unwrap();
+        let turned = ImageView::packed(&turned, 48, 48).unwrap();
+        let mut birth = Anchor::capture(&upright, centre);
+        birth.turn(Turn::rotation(0.2));
+        // The image turned 0.2 rad (11.5 degrees) since the birth: the summed turn is right,
+        // and the patch compared unturned would fail where turned it passes.
+        let mut yawed = birth;
+        yawed.settle_turn(&turned, centre);
+        assert!(yawed.has_turned());
+        assert!(yawed.matches(&turned, centre, 0.95));
+        assert!(!Anchor::capture(&upright, centre).matches(&turned, centre, 0.95));
+        // The image did not turn: the sum is the frames' errors, and it is dropped for good.
+        assert!(!birth.matches(&upright, centre, 0.95));
+        let mut circled = birth;
+        circled.settle_turn(&upright, centre);
+        assert!(!circled.has_turned());
+        assert!(circled.matches(&upright, centre, 0.99));
+        circled.turn(Turn::rotation(0.2));
+        assert!(!circled.has_turned());
     }
 
     #[test]

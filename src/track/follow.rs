@@ -11,8 +11,9 @@ use crate::pyramid::Pyramid;
 use crate::q16::{Point, Q16};
 use heapless::Vec;
 
-/// Frames a track's birth patch turns with the image, from its birth.
-const TURN_AGE: u32 = 128;
+/// Every this many frames of a track's life, its birth patch's summed turn is checked against
+/// the image ([`Anchor::settle_turn`]).
+const TURN_CHECK_EVERY: u32 = 128;
 
 /// How often, in frames, a track is relocated onto its birth patch (from that age on) while the
 /// image turns or zooms fast and has turned since the track's birth.
@@ -92,15 +93,16 @@ impl Follow<'_, '_> {
             );
         }
         let turn = Turn::of(&pairs);
-        // A frame's similarity is the image's turn only on average (a tilted ground zooms more
-        // at one edge than at the other): summed over a long life it would turn a patch more
-        // than its own feature turned. Old tracks compare their birth patches unturned.
+        // A frame's similarity is the image's turn only on average, and summed over a long
+        // life its errors may turn a patch more than its own feature turned: now and then each
+        // track's summed turn is checked against the image, in the frame it is in.
+        let frame = self.prev.base();
         for (anchor, track) in anchors.iter_mut().zip(tracks.iter()) {
-            if track.age < TURN_AGE {
-                anchor.turn(turn);
-            } else {
-                anchor.turn_back();
+            let due = track.age > 0 && track.age.checked_rem(TURN_CHECK_EVERY) == Some(0);
+            if due {
+                anchor.settle_turn(&frame, track.position);
             }
+            anchor.turn(turn);
         }
         // A translation's residual grows on an image that turns or zooms fast, though the
         // tracks are right: in such a frame the residual gate is twice as wide, and the birth

@@ -53,6 +53,15 @@ impl Turn {
     /// No rotation, no scale.
     pub const NONE: Self = Self { re: 1.0, im: 0.0 };
 
+    /// A rotation by `radians`, for tests.
+    #[cfg(test)]
+    pub fn rotation(radians: f32) -> Self {
+        Self {
+            re: radians.cos(),
+            im: radians.sin(),
+        }
+    }
+
     /// The frame's turn from the steps `from -> to` of its tracked points (the first
     /// [`STEPS`]); [`Turn::NONE`] when too few lie far enough from the middle to say.
     pub fn of(steps: &[(Point, Point)]) -> Self {

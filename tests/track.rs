@@ -341,7 +341,7 @@ fn refill_keeps_the_count_near_the_target_as_features_leave() {
         "every corner started",
     );
     assert!(
-        f.ids + 20 < all.ids,
+        f.ids + 10 < all.ids,
         "{} ids, {} with every corner",
         f.ids,
         all.ids

@@ -274,9 +274,10 @@ fn stats_report_the_library_time_per_frame() {
 }
 
 /// `--refill-below` sets when new corners are detected: at 0 only the first frame starts
-/// tracks, though a fast pan takes some out of the view; by default the lost ones are replaced.
+/// tracks, though a fast pan takes some out of the view; by default the lost ones are replaced,
+/// and with `--leaving-within` none starts where the pan soon takes it out of the view.
 #[test]
-fn refill_below_sets_when_new_tracks_start() {
+fn refill_below_and_leaving_within_set_where_and_when_new_tracks_start() {
     let scratch = Scratch::new("track-refill-below");
     let dir = scratch.path("frames");
     write_folder(&dir, &fast_pan(4));
@@ -288,18 +289,29 @@ fn refill_below_sets_when_new_tracks_start() {
         assert!(output.status.success(), "{output:?}");
         let rows = rows(&out);
         let first: BTreeSet<u32> = rows.iter().filter(|r| r.frame == 0).map(|r| r.id).collect();
-        let later: BTreeSet<u32> = rows
+        // Where each later track started.
+        let later: BTreeMap<u32, f64> = rows
             .iter()
-            .map(|r| r.id)
-            .filter(|id| !first.contains(id))
+            .rev()
+            .filter(|r| !first.contains(&r.id))
+            .map(|r| (r.id, r.x))
             .collect();
-        (first.len(), later.len(), check_rules(&rows, 4))
+        (first.len(), later, check_rules(&rows, 4))
     };
     let (started, later, live) = born_later(&[&"--refill-below", &"0"]);
-    assert!(started > 0 && later == 0, "{started} {later}");
+    assert!(started > 0 && later.is_empty(), "{started} {later:?}");
     assert!(live.last() < live.first(), "{live:?}");
+    // The scene moves 10 px a frame to the right: 20 frames take a corner a quarter of the
+    // width, 40 px, and none starts within 48 px of the right edge; with every corner started,
+    // some do.
+    let right = (WIDTH - 1 - 48) as f64;
     let (_, later, _) = born_later(&[]);
-    assert!(later > 0);
+    assert!(
+        !later.is_empty() && later.values().all(|&x| x <= right),
+        "{later:?}"
+    );
+    let (_, every, _) = born_later(&[&"--leaving-within", &"0"]);
+    assert!(every.values().any(|&x| x > right), "{every:?}");
 }
 
 /// The preset and the LK and gate flags reach the tracker: the preset's 25 tracks cap the
@@ -383,6 +395,23 @@ fn the_preset_and_the_tracker_flags_configure_the_run() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains(says), "{flag}: {stderr}");
     }
+    // The preset aims for 25 tracks.
+    let preset = host_sim(&[
+        &"track",
+        &dir,
+        &"--out",
+        &out,
+        &"--preset",
+        &"flow-sensor",
+        &"--refill-below",
+        &"30",
+    ]);
+    assert_eq!(preset.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&preset.stderr);
+    assert!(
+        stderr.contains("must be at most the 25 tracks aimed for (got 30)"),
+        "{stderr}"
+    );
 }
 
 #[test]

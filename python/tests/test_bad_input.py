@@ -120,6 +120,7 @@ OTHER_CASES = [
     (lambda: kestrel.Tracker(refill_cooldown=65536), ValueError, "refill_cooldown must be 0 to 65535"),
     (lambda: kestrel.Tracker(revive_within=-1), ValueError, "revive_within must be 0 to 65535 frames: got -1"),
     (lambda: kestrel.Tracker(max_tracks=40, refill_below=41), ValueError, "refill_below must be 0 to max_tracks, 40: got 41"),
+    (lambda: kestrel.Tracker(preset="flow_sensor", refill_below=30), ValueError, "refill_below must be 0 to max_tracks, 25: got 30"),
     (lambda: kestrel.Tracker(leaving_within=70000), ValueError, "leaving_within must be 0 to 65535 frames: got 70000"),
     (lambda: kestrel.MotionDetector(persist_pairs=0), ValueError, "persist_pairs must be 1 to 255"),
     (lambda: kestrel.estimate_motion(np.float32([[0, 0]]), np.float32([[1, 1], [2, 2]])), ValueError, "prev_pts has 1 points but next_pts has 2"),

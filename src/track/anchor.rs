@@ -133,6 +133,12 @@ impl Anchor {
     /// that circles without turning, old patches turned by that sum stop matching their
     /// features. On a camera that yaws, the sum is the feature's turn, and comparing the patch
     /// unturned drops the track, or relocates it off its feature.
+    ///
+    /// A turn too small for the two grids to differ (a few degrees) is given up as well, and a
+    /// track whose camera turns much more later is then dropped by the appearance gate, as all
+    /// old tracks were before. Keeping such a turn for a later check, or summing again from
+    /// none, cost the 100,000-frame soak of host-sim's tests its accuracy (99.74 % and 99.70 % of
+    /// its track-frames within 1 px, against 99.77 %).
     pub(super) fn settle_turn(&mut self, frame: &ImageView<'_>, position: Point) {
         if self.turned.is_negligible() {
             return;
@@ -457,7 +463,8 @@ struct Moments {
 }
 
 impl Moments {
-    /// The correlation's square with its sign, `-1..=1`; 0 when either side has no contrast.
+    /// The correlation's square, `0..=1`: 0 when the correlation is negative or either side
+    /// has no contrast.
     fn correlation_sq(&self) -> f32 {
         let (cov, va, vb) = (self.covariance as f32, self.var_a as f32, self.var_b as f32);
         if va <= 0.0 || vb <= 0.0 {

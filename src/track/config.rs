@@ -421,12 +421,59 @@ pub struct Refill {
     /// walkers and end on their first step.
     pub cooldown: u16,
     /// On a camera that moves, frames: a corner that the frame's median step would carry to
-    /// within `border` of the frame's edge in fewer than this many frames starts no track
-    /// (the step taken at most a quarter of the frame across, so that a fast pan still
-    /// spreads its tracks). Such a track would live a few frames and its slot would be
-    /// refilled soon after, while a corner deeper in the view is followed for as long as the
-    /// view keeps it. Only when the median step is at least half a pixel: a still camera's
-    /// median step is noise, and a corner by the edge lives as long as any. 0 turns it off.
+    /// within `border` of the frame's edge within this many frames starts no track, and takes
+    /// no place in the grid (the step taken at most a quarter of the frame across, so that a
+    /// fast pan still spreads its tracks). Such a track would live a few frames and its slot
+    /// would be refilled soon after, while a corner deeper in the view is followed for as long
+    /// as the view keeps it. Only when the median step is at least half a pixel: a still
+    /// camera's median step is noise, and a corner by the edge lives as long as any. 0 turns
+    /// it off.
+    ///
+    /// ```
+    /// use kestrel::track::{Refill, TrackerConfig};
+    /// # use kestrel::detect::Corner;
+    /// # use kestrel::ImageView;
+    /// # use kestrel::lk::scratch_len;
+    /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers};
+    /// # const W: usize = 160;
+    /// # const H: usize = 120;
+    /// # // Smooth texture moved `shift` px to the right.
+    /// # let scene = |shift: f32| -> Vec<u8> {
+    /// #     (0..W * H).map(|i| {
+    /// #         let (x, y) = ((i % W) as f32 - shift, (i / W) as f32);
+    /// #         (128.0 + 60.0 * (0.31 * x).sin() * (0.27 * y).cos() + 40.0 * (0.13 * (x - y)).sin()) as u8
+    /// #     }).collect()
+    /// # };
+    /// // The x of every track started after the first frame of a scene moving 2 px a frame to
+    /// // the right, with a tracker of `refill`.
+    /// let started_at = |refill: Refill| -> Vec<f32> {
+    ///     let refill = Refill { below: 54, ..refill };
+    ///     let config = TrackerConfig { max_tracks: 60, refill, ..TrackerConfig::default() };
+    /// #   let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+    /// #   let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+    /// #   let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 200)];
+    /// #   let mut candidates = vec![Corner::default(); 200];
+    /// #   let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #       detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// #   let mut tracker = Tracker::<60>::new(config, W, H, buffers).unwrap();
+    ///     // ... a tracker of `config`, started on the first frame, then given 30 more ...
+    /// #   let frames: Vec<Vec<u8>> = (0..31).map(|k| scene(2.0 * k as f32)).collect();
+    /// #   let view = |k: usize| ImageView::packed(&frames[k], W, H).unwrap();
+    /// #   tracker.start(view(0)).unwrap();
+    /// #   let mut xs = Vec::new();
+    /// #   for k in 1..31 {
+    /// #       let report = tracker.process(view(k - 1), view(k), None).unwrap();
+    /// #       let new = &tracker.tracks()[report.live - report.added..];
+    /// #       xs.extend(new.iter().map(|t| t.position.to_f32().0));
+    /// #   }
+    /// #   xs
+    /// };
+    /// let every_corner = started_at(Refill { leaving_within: 0, ..Refill::default() });
+    /// let staying = started_at(Refill::default());
+    /// // 20 frames take a corner 40 px right: none starts within 48 px of the right edge.
+    /// assert!(!staying.is_empty() && staying.iter().all(|&x| x <= 111.0));
+    /// assert!(every_corner.iter().any(|&x| x > 111.0));
+    /// ```
     pub leaving_within: u16,
 }
 
@@ -458,7 +505,8 @@ impl Refill {
 impl Default for Refill {
     /// Below 80 tracks, [`Detector::default`] on pyramid level 1, at most 3 corners in each
     /// cell of an 8 x 6 grid, 8 px from the edges and 5 px apart, none for 32 frames near where
-    /// a young track failed, none that a moving camera takes out of the view within 20 frames.
+    /// a young track failed, none that a camera moving half a pixel a frame or more takes out
+    /// of the view within 20 frames.
     fn default() -> Self {
         Self::with(Detector::default())
     }
@@ -601,7 +649,9 @@ impl TrackerConfig {
     /// window cover. No refill cooldown: with one track to a grid cell, a cell whose best
     /// corner cools down takes a weaker one, and the reading the 25 tracks make is worse for it
     /// (the firmware template's flight in `bench/mavlink_link.sh`: worst reading 0.041 px from
-    /// the true flow without, 0.054-0.059 px with the default 32 frames).
+    /// the true flow without, 0.054-0.059 px with the default 32 frames). Every corner starts
+    /// a track, however soon it leaves the view (no [`Refill::leaving_within`]), for the same
+    /// reason: a cell whose corner is passed over takes a weaker one.
     ///
     /// ```
     /// use kestrel::track::TrackerConfig;
@@ -609,6 +659,7 @@ impl TrackerConfig {
     /// assert_eq!((SENSOR.max_tracks, SENSOR.lk.window, SENSOR.pyramid_levels()), (25, 7, 1));
     /// assert_eq!((SENSOR.refill.below, SENSOR.refill.grid.cols), (20, 5));
     /// assert_eq!(SENSOR.refill.cooldown, 0);
+    /// assert_eq!(SENSOR.refill.leaving_within, 0);
     /// assert_eq!(SENSOR.relocation.every, 16);
     /// ```
     pub const fn flow_sensor() -> Self {

@@ -1029,7 +1029,7 @@ fn start_tracks(
         &config.refill,
         &level_image,
         size,
-        (live, cooling.spots()),
+        (live, cooling.spots(), motion),
         detect,
     )
     .map_err(TrackerError::Config)?;
@@ -1038,10 +1038,6 @@ fn start_tracks(
     for corner in corners {
         if started >= room {
             break;
-        }
-        let leaving = |m| refill::leaves_soon(&config.refill, corner.position, m, size);
-        if motion.is_some_and(leaving) {
-            continue;
         }
         let anchor = newborn(checked, &pyramid, corner.position, buffers.lk_scratch)?;
         let Some(anchor) = anchor else {

@@ -21,7 +21,8 @@ pub(super) struct DetectBuffers<'b> {
 /// Finds new corners on `level_image`, pyramid level `refill.level` of a
 /// `width` x `height` frame, at least `refill.min_distance` px from every position in `live`
 /// and from each other, twice that from every position in `cooling`, at most
-/// `refill.grid.per_cell` per cell counting `live`.
+/// `refill.grid.per_cell` per cell counting `live`, and none that the frame's median step
+/// `motion` soon takes out of the view ([`leaves_soon`]).
 ///
 /// Returns the corners, strongest first, in full-resolution coordinates: a prefix of
 /// `buffers.candidates`.
@@ -29,7 +30,7 @@ pub(super) fn new_corners<'b>(
     refill: &Refill,
     level_image: &ImageView<'_>,
     (width, height): (usize, usize),
-    (live, cooling): (&[Point], &[(Point, u32)]),
+    (live, cooling, motion): (&[Point], &[(Point, u32)], Option<Point>),
     buffers: DetectBuffers<'b>,
 ) -> Result<&'b [Corner], ConfigError> {
     let level = refill.level;
@@ -67,6 +68,13 @@ pub(super) fn new_corners<'b>(
     // range is inside its slice.
     debug_assert!(found <= buffers.candidates.len());
     let found = buffers.candidates.get_mut(..found).unwrap_or(&mut []);
+    // Before the spacing and the grid: a corner about to leave takes no one's place.
+    let staying = match motion {
+        Some(motion) => keep_staying(found, refill, motion, level, (width, height)),
+        None => found.len(),
+    };
+    debug_assert!(staying <= found.len());
+    let found = found.get_mut(..staying).unwrap_or(&mut []);
     let spaced = space_out(found, &mut mask, radius);
     debug_assert!(spaced <= found.len());
     let spaced = found.get_mut(..spaced).unwrap_or(&mut []);
@@ -83,15 +91,10 @@ pub(super) fn new_corners<'b>(
 const LEAVING_MIN_STEP_SQ: i64 = 1 << 30;
 
 /// Whether a corner at `p` would come within `refill.border` px of the edge of a `width` x
-/// `height` frame in fewer than [`Refill::leaving_within`] frames of `motion` (the frame's
-/// median step), taken at most a quarter of the frame across; false when `motion` is under
-/// half a pixel.
-pub(super) fn leaves_soon(
-    refill: &Refill,
-    p: Point,
-    motion: Point,
-    (width, height): (usize, usize),
-) -> bool {
+/// `height` frame within [`Refill::leaving_within`] frames of `motion` (the frame's median
+/// step), taken at most a quarter of the frame across; false when `motion` is under half a
+/// pixel.
+fn leaves_soon(refill: &Refill, p: Point, motion: Point, (width, height): (usize, usize)) -> bool {
     let (mx, my) = (i64::from(motion.x.to_bits()), i64::from(motion.y.to_bits()));
     let moving = mx.saturating_mul(mx).saturating_add(my.saturating_mul(my)) >= LEAVING_MIN_STEP_SQ;
     if refill.leaving_within == 0 || !moving {
@@ -99,8 +102,10 @@ pub(super) fn leaves_soon(
     }
     let frames = i64::from(refill.leaving_within);
     let border = i64::from(refill.border) << 16;
+    // Frame sides are at most MAX_DIMENSION: far inside i64.
+    #[allow(clippy::cast_possible_wrap)]
     let stays = |at: i32, step: i64, side: usize| {
-        let side = i64::try_from(side).unwrap_or(i64::MAX);
+        let side = side as i64;
         let most = side.saturating_mul(1 << 14);
         let to = i64::from(at).saturating_add(
             step.saturating_mul(frames)
@@ -166,22 +171,49 @@ impl<const N: usize> Cooling for FailedSpots<N> {
     }
 }
 
+/// Keeps, in their order, the corners of pyramid level `level` that `motion` does not soon take
+/// out of the `size` frame ([`leaves_soon`]); moves them to the front and returns how many
+/// there are.
+fn keep_staying(
+    corners: &mut [Corner],
+    refill: &Refill,
+    motion: Point,
+    level: usize,
+    size: (usize, usize),
+) -> usize {
+    keep_front(corners, |corner| {
+        let at = at_full_resolution(corner.position, level);
+        !leaves_soon(refill, at, motion, size)
+    })
+}
+
 /// Keeps, strongest first, the corners outside `mask`, excluding `radius` around each one kept;
 /// moves them to the front and returns how many there are.
 ///
 /// The detector already skipped corners near live tracks; this keeps the new ones apart, which
 /// FAST's 3 x 3 suppression alone does not.
 fn space_out(corners: &mut [Corner], mask: &mut ExclusionMask, radius: u16) -> usize {
+    keep_front(corners, |corner| {
+        let (x, y) = corner.pixel();
+        let free = !mask.is_excluded(x, y);
+        if free {
+            mask.exclude_around(corner.position, radius);
+        }
+        free
+    })
+}
+
+/// Moves the corners `keep` takes, asked in order, to the front, in their order; returns how
+/// many there are.
+fn keep_front(corners: &mut [Corner], mut keep: impl FnMut(&Corner) -> bool) -> usize {
     let mut kept = 0;
     for i in 0..corners.len() {
         let Some(&corner) = corners.get(i) else {
             break;
         };
-        let (x, y) = corner.pixel();
-        if mask.is_excluded(x, y) {
+        if !keep(&corner) {
             continue;
         }
-        mask.exclude_around(corner.position, radius);
         if let Some(slot) = corners.get_mut(kept) {
             *slot = corner;
             kept = kept.saturating_add(1);

@@ -329,16 +329,19 @@ fn the_preset_and_the_tracker_flags_configure_the_run() {
         per_frame.iter().all(|&n| (1..=25).contains(&n)),
         "{per_frame:?}"
     );
-    let wider = host_sim(&[
-        &"track",
-        &dir,
-        &"--out",
-        &out,
-        &"--preset",
-        &"flow-sensor",
-        &"--max-tracks",
-        &"40",
-    ]);
+    let preset_and = |flag: &str, value: &str| {
+        host_sim(&[
+            &"track",
+            &dir,
+            &"--out",
+            &out,
+            &"--preset",
+            &"flow-sensor",
+            &flag,
+            &value,
+        ])
+    };
+    let wider = preset_and("--max-tracks", "40");
     assert!(wider.status.success(), "{wider:?}");
     assert!(check_rules(&rows(&out), 4).iter().any(|&n| n > 25));
     let firmware = host_sim(&[
@@ -396,16 +399,7 @@ fn the_preset_and_the_tracker_flags_configure_the_run() {
         assert!(stderr.contains(says), "{flag}: {stderr}");
     }
     // The preset aims for 25 tracks.
-    let preset = host_sim(&[
-        &"track",
-        &dir,
-        &"--out",
-        &out,
-        &"--preset",
-        &"flow-sensor",
-        &"--refill-below",
-        &"30",
-    ]);
+    let preset = preset_and("--refill-below", "30");
     assert_eq!(preset.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&preset.stderr);
     assert!(

@@ -589,6 +589,13 @@ pub struct Relocation {
     /// the oldest forgotten first; all are forgotten in a frame whose camera moves, where too
     /// few tracks stepped to say, or where most tracks failed at once. 0 turns it off.
     pub revive_within: u16,
+    /// While the camera moves (the frame's median step half a pixel or more), a track within
+    /// 6 px of the frame's edge is relocated in every frame, whatever its age: LK's window
+    /// there is cut by the edge, the pixels past it repeat the edge pixels, which do not move
+    /// with the scene, and each step is biased towards standing still; relocation compares the
+    /// part of the birth patch inside the frame. On a still camera the edge tracks stay put,
+    /// where the cut window does no harm.
+    pub at_edge: bool,
 }
 
 impl Relocation {
@@ -598,12 +605,14 @@ impl Relocation {
         from_age: 32,
         max_distance: 0.75,
         revive_within: 32,
+        at_edge: true,
     };
 }
 
 impl Default for Relocation {
-    /// Every 8 frames (16 on a turned image), tracks at least 32 frames old, within 0.75 px;
-    /// dropped tracks revived within 32 frames on a still camera.
+    /// Every 8 frames (16 on a turned image), tracks at least 32 frames old, within 0.75 px,
+    /// and tracks by the edge of a moving camera's frame in every frame; dropped tracks
+    /// revived within 32 frames on a still camera.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -661,6 +670,7 @@ impl TrackerConfig {
     /// assert_eq!(SENSOR.refill.cooldown, 0);
     /// assert_eq!(SENSOR.refill.leaving_within, 0);
     /// assert_eq!(SENSOR.relocation.every, 16);
+    /// assert!(!SENSOR.relocation.at_edge);
     /// ```
     pub const fn flow_sensor() -> Self {
         let lk = LkParams {
@@ -696,6 +706,9 @@ impl TrackerConfig {
             relocation: Relocation {
                 every: 16,
                 revive_within: 0,
+                // A relocation costs about six of a track's LK steps, and at 400 Hz the image
+                // moves a pixel or two a frame at most, the edge tracks little.
+                at_edge: false,
                 ..Relocation::DEFAULT
             },
             ..defaults
@@ -813,6 +826,7 @@ impl TrackerConfig {
             every: relocation.every,
             from_age: relocation.from_age,
             max_shift_sq,
+            at_edge: relocation.at_edge,
         });
         Ok(Checked {
             relocate,
@@ -902,6 +916,8 @@ pub(super) struct Relocate {
     pub from_age: u32,
     /// The relocation limit squared, in squared Q16 units.
     pub max_shift_sq: i64,
+    /// Whether tracks by the edge of a moving camera's frame are relocated in every frame.
+    pub at_edge: bool,
 }
 
 #[cfg(test)]

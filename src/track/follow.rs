@@ -19,6 +19,15 @@ const TURN_CHECK_EVERY: u32 = 128;
 /// image turns or zooms fast and has turned since the track's birth.
 const TURNED_RELOCATE: u32 = 2;
 
+/// A track this close to the frame's edge, px, is relocated in every frame while the camera
+/// moves ([`moves`]; see [`super::Relocation::at_edge`]).
+const EDGE_RELOCATE: usize = 6;
+
+/// Whether a frame's median step `centre` says the camera moves: half a pixel or more.
+pub(super) fn moves(centre: Point) -> bool {
+    distance_sq(centre, Point::default()) >= 1 << 30
+}
+
 /// The age from which a track whose image has turned or zoomed since its birth is relocated
 /// on the regular schedule, at the latest: LK's translation drifts on such a track (a zoom
 /// biases it towards the window's stronger texture) long before the regular first age.
@@ -113,6 +122,7 @@ impl Follow<'_, '_> {
         // A camera that is still leaves a dropped track's feature where it was: it may be
         // revived there.
         let set_aside_dropped = self.checked.revive.is_some() && limits.is_still();
+        let moving = limits.centre.is_some_and(moves);
         let mut kept = 0;
         for i in 0..tracks.len() {
             let (Some(&track), Some(fwd), Some(anchor)) =
@@ -121,7 +131,7 @@ impl Follow<'_, '_> {
                 break;
             };
             let max_residual = limits.of_step(&track, &fwd.step, widen);
-            let verdict = self.judge(&track, anchor, fwd, (max_residual, turn), scratch)?;
+            let verdict = self.judge(&track, anchor, fwd, (max_residual, turn, moving), scratch)?;
             if let Err(rejection) = verdict {
                 let revivable = set_aside_dropped
                     && rejection != Rejection::OutOfFrame
@@ -365,13 +375,13 @@ impl Follow<'_, '_> {
 
     /// Whether `track`, whose forward step is `fwd`, passes every gate, and if so its position
     /// in the next frame: the step's, or where its anchor was found when it was due for
-    /// relocation.
+    /// relocation (`moving`: the camera moves, see [`moves`]).
     fn judge(
         &self,
         track: &Track,
         anchor: &Anchor,
         fwd: &Forward,
-        (max_residual, turn): (Option<Q16>, Turn),
+        (max_residual, turn, moving): (Option<Q16>, Turn, bool),
         scratch: &mut [i16],
     ) -> Result<Result<Point, Rejection>, LkError> {
         let step = fwd.step;
@@ -387,7 +397,8 @@ impl Follow<'_, '_> {
         let fast = turn.is_fast();
         let mut position = step.position;
         if let Some(relocate) = self.checked.relocate {
-            position = match self.relocated(track, anchor, position, (relocate, fast)) {
+            let due = (relocate, fast, moving);
+            position = match self.relocated(track, anchor, position, due) {
                 Ok(found) => found,
                 Err(rejection) => return Ok(Err(rejection)),
             };
@@ -418,13 +429,15 @@ impl Follow<'_, '_> {
 
     /// Where `track`, stepped to `position`, is once relocated onto its anchor when it is due
     /// (`position` itself when not, or when too little of its patch lies in the frame to say);
-    /// the rejection when the anchor is not found near it, or is found out of the frame.
+    /// the rejection when the anchor is not found near it, or is found out of the frame. Due on
+    /// its schedule, sooner while the image turns fast (`fast`), and in every frame near the
+    /// frame's edge while the camera moves (`moving`, see [`EDGE_RELOCATE`]).
     fn relocated(
         &self,
         track: &Track,
         anchor: &Anchor,
         position: Point,
-        (relocate, fast): (Relocate, bool),
+        (relocate, fast, moving): (Relocate, bool, bool),
     ) -> Result<Point, Rejection> {
         let age = track.age.saturating_add(1);
         let on_schedule = |from: u32, every: u32| {
@@ -448,7 +461,12 @@ impl Follow<'_, '_> {
         // LK drifts faster on an image that turns or zooms fast: its tracks are brought back
         // onto their features sooner and more often.
         let quick = fast && turned && on_schedule(TURNED_RELOCATE, TURNED_RELOCATE);
-        if !(regular || quick) {
+        // A still camera's edge tracks stay put, where LK's cut window does no harm; relocated
+        // every frame, the tracks at the edge of a face that talks failed sooner (carphone).
+        let at_edge = relocate.at_edge
+            && moving
+            && !window_inside(&self.next.base(), position, EDGE_RELOCATE);
+        if !(regular || quick || at_edge) {
             return Ok(position);
         }
         // Near the frame's edge the part of the patch inside it is compared: a window the

@@ -2,6 +2,7 @@
 //! space the new corners out, and bucket them over the frame.
 
 use super::config::{Detector, Refill};
+use super::follow::moves;
 use crate::detect::{Corner, ExclusionMask, Region};
 use crate::frame::ImageView;
 use crate::q16::Point;
@@ -86,18 +87,13 @@ pub(super) fn new_corners<'b>(
     Ok(spaced.get(..selected).unwrap_or(&[]))
 }
 
-/// The least median step, px (squared, in squared Q16 units), at which corners about to leave
-/// the view are passed over ([`Refill::leaving_within`]): half a pixel.
-const LEAVING_MIN_STEP_SQ: i64 = 1 << 30;
-
 /// Whether a corner at `p` would come within `refill.border` px of the edge of a `width` x
 /// `height` frame within [`Refill::leaving_within`] frames of `motion` (the frame's median
 /// step), taken at most a quarter of the frame across; false when `motion` is under half a
 /// pixel.
 fn leaves_soon(refill: &Refill, p: Point, motion: Point, (width, height): (usize, usize)) -> bool {
     let (mx, my) = (i64::from(motion.x.to_bits()), i64::from(motion.y.to_bits()));
-    let moving = mx.saturating_mul(mx).saturating_add(my.saturating_mul(my)) >= LEAVING_MIN_STEP_SQ;
-    if refill.leaving_within == 0 || !moving {
+    if refill.leaving_within == 0 || !moves(motion) {
         return false;
     }
     let frames = i64::from(refill.leaving_within);

@@ -197,6 +197,7 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
                 quarters => f32::from(quarters) * 0.25,
             },
             revive_within: u16::from(c.window / 40) * 8,
+            at_edge: (c.window / 20) % 2 == 0,
         },
         pyramid: if (c.block / 80) % 2 == 0 {
             PyramidFilter::Gaussian

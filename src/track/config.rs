@@ -589,12 +589,14 @@ pub struct Relocation {
     /// the oldest forgotten first; all are forgotten in a frame whose camera moves, where too
     /// few tracks stepped to say, or where most tracks failed at once. 0 turns it off.
     pub revive_within: u16,
-    /// While the camera moves (the frame's median step half a pixel or more), a track within
-    /// 6 px of the frame's edge is relocated in every frame, whatever its age: LK's window
-    /// there is cut by the edge, the pixels past it repeat the edge pixels, which do not move
-    /// with the scene, and each step is biased towards standing still; relocation compares the
-    /// part of the birth patch inside the frame. On a still camera the edge tracks stay put,
-    /// where the cut window does no harm.
+    /// While the camera moves (the frame's median step half a pixel or more), a track whose LK
+    /// window the frame's edge cuts is relocated in every frame, whatever its age: the
+    /// window's pixels past the edge repeat the edge pixels, which do not move with the scene,
+    /// and each step is biased towards standing still; relocation compares the part of the
+    /// birth patch inside the frame. On a still camera the edge tracks stay put, where the cut
+    /// window does no harm. It costs one relocation per such track and frame (on the
+    /// firmware's test flight, 1.95 M -> 2.05 M instructions a frame for 100 tracks on
+    /// 160 x 120 frames).
     pub at_edge: bool,
 }
 

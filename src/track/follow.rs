@@ -19,10 +19,6 @@ const TURN_CHECK_EVERY: u32 = 128;
 /// image turns or zooms fast and has turned since the track's birth.
 const TURNED_RELOCATE: u32 = 2;
 
-/// A track this close to the frame's edge, px, is relocated in every frame while the camera
-/// moves ([`moves`]; see [`super::Relocation::at_edge`]).
-const EDGE_RELOCATE: usize = 6;
-
 /// Whether a frame's median step `centre` says the camera moves: half a pixel or more.
 pub(super) fn moves(centre: Point) -> bool {
     distance_sq(centre, Point::default()) >= 1 << 30
@@ -431,7 +427,8 @@ impl Follow<'_, '_> {
     /// (`position` itself when not, or when too little of its patch lies in the frame to say);
     /// the rejection when the anchor is not found near it, or is found out of the frame. Due on
     /// its schedule, sooner while the image turns fast (`fast`), and in every frame near the
-    /// frame's edge while the camera moves (`moving`, see [`EDGE_RELOCATE`]).
+    /// frame's edge, where its LK window is cut, while the camera moves (`moving`, see
+    /// [`super::Relocation::at_edge`]).
     fn relocated(
         &self,
         track: &Track,
@@ -465,7 +462,11 @@ impl Follow<'_, '_> {
         // every frame, the tracks at the edge of a face that talks failed sooner (carphone).
         let at_edge = relocate.at_edge
             && moving
-            && !window_inside(&self.next.base(), position, EDGE_RELOCATE);
+            && !window_inside(
+                &self.next.base(),
+                position,
+                self.checked.lk.params().window / 2,
+            );
         if !(regular || quick || at_edge) {
             return Ok(position);
         }

@@ -851,7 +851,7 @@ impl TrackerConfig {
 }
 
 /// A Q16 distance squared, in squared Q16 units.
-fn squared_bits(limit: Q16) -> i64 {
+pub(super) fn squared_bits(limit: Q16) -> i64 {
     let bits = i64::from(limit.to_bits());
     bits.saturating_mul(bits)
 }

@@ -1,7 +1,7 @@
 //! One frame's step for every live track: LK forwards, then the gates, cheapest first.
 
 use super::anchor::{Anchor, Located};
-use super::config::{Checked, Relocate, FAILED_YOUNG};
+use super::config::{squared_bits, Checked, Relocate, FAILED_YOUNG};
 use super::revive::SET_ASIDE_FROM_AGE;
 use super::turn::{self, Turn};
 use super::{FrameReport, Track};
@@ -19,9 +19,9 @@ const TURN_CHECK_EVERY: u32 = 128;
 /// image turns or zooms fast and has turned since the track's birth.
 const TURNED_RELOCATE: u32 = 2;
 
-/// Whether a frame's median step `centre` says the camera moves: half a pixel or more.
+/// Whether a frame's median step `centre` says the camera moves: [`MOVING_STEP`] or more.
 pub(super) fn moves(centre: Point) -> bool {
-    distance_sq(centre, Point::default()) >= 1 << 30
+    distance_sq(centre, Point::default()) >= squared_bits(MOVING_STEP)
 }
 
 /// The age from which a track whose image has turned or zoomed since its birth is relocated
@@ -583,9 +583,8 @@ impl ResidualLimits {
 
     /// Whether the frame's median step is within [`STILL_STEP`] px of none: a still camera.
     fn is_still(&self) -> bool {
-        let still = i64::from(STILL_STEP.to_bits());
         self.centre
-            .is_some_and(|c| distance_sq(c, Point::default()) <= still.saturating_mul(still))
+            .is_some_and(|c| distance_sq(c, Point::default()) <= squared_bits(STILL_STEP))
     }
 
     /// The limit of `track`, stepped by `step`: the frame's (or the movers'), `widen` times
@@ -672,6 +671,10 @@ const USUAL_RESIDUAL_SHIFT: u32 = 3;
 /// The longest median step of a frame whose camera is taken as still, px: well under what a
 /// camera that pans or shakes moves in a frame, and above LK's noise on a still one.
 const STILL_STEP: Q16 = Q16::from_bits(1 << 16 >> 3);
+
+/// The shortest median step of a frame whose camera is taken as moving, px: half a pixel, under
+/// which the median is as much LK's noise and a mover's steps as the camera's motion.
+const MOVING_STEP: Q16 = Q16::from_bits(1 << 15);
 
 /// How far `step` moves `track`.
 fn displacement(track: &Track, step: &PointTrack) -> Point {

@@ -3,7 +3,7 @@
 use std::collections::HashSet;
 
 use host_sim::tracking::{
-    config_for, HostBuffers, LkSettings, Preset, TrackerSettings, MAX_TRACKS,
+    config_for, tracks_aimed_for, HostBuffers, LkSettings, Preset, TrackerSettings, MAX_TRACKS,
 };
 use kestrel::detect::Corner;
 use kestrel::track::{
@@ -425,11 +425,7 @@ impl Tracker {
                 )))
             }
         };
-        let default_tracks = match preset {
-            Some(p) => p.config(None).max_tracks,
-            None => 100,
-        };
-        let max_tracks = max_tracks.unwrap_or(default_tracks as i64);
+        let max_tracks = max_tracks.unwrap_or(tracks_aimed_for(preset, None) as i64);
         if !(1..=MAX_TRACKS as i64).contains(&max_tracks) {
             return Err(value_error(format!(
                 "max_tracks must be 1 to {MAX_TRACKS}: got {max_tracks}"

@@ -23,8 +23,8 @@ use kestrel::track::FrameReport;
 use serde_json::json;
 use std::collections::HashMap;
 use tracking::{
-    config_for, preset, track_sequence, Preset, TrackedFrame, TrackerSettings, TrackingFailure,
-    MAX_TRACKS,
+    config_for, preset, track_sequence, tracks_aimed_for, Preset, TrackedFrame, TrackerSettings,
+    TrackingFailure, MAX_TRACKS,
 };
 
 /// Columns of tracks.csv: the contract's four, then the track's age in frames and its last
@@ -86,9 +86,6 @@ pub struct TrackOptions {
     pub stats: Option<PathBuf>,
 }
 
-/// Tracks aimed for without `--max-tracks` or `--preset`.
-const DEFAULT_MAX_TRACKS: usize = 100;
-
 fn max_tracks(text: &str) -> Result<usize, String> {
     let range = |n| (1..=MAX_TRACKS as i64).contains(&n);
     values::whole(text, range, "must be between 1 and 1000").map(|n| n as usize)
@@ -99,10 +96,7 @@ fn check_refill_below(options: &TrackOptions) -> Result<(), CommandError> {
     let Some(below) = options.settings.refill_below else {
         return Ok(());
     };
-    let max_tracks = match options.preset {
-        Some(preset) => preset.config(options.max_tracks).max_tracks,
-        None => options.max_tracks.unwrap_or(DEFAULT_MAX_TRACKS),
-    };
+    let max_tracks = tracks_aimed_for(options.preset, options.max_tracks);
     match below <= max_tracks {
         true => Ok(()),
         false => Err(CommandError::Usage(format!(
@@ -145,11 +139,7 @@ pub fn run(options: &TrackOptions) -> Result<(), CommandError> {
     let configure = |width, height| {
         let base = match options.preset {
             Some(preset) => preset.config(options.max_tracks),
-            None => config_for(
-                width,
-                height,
-                options.max_tracks.unwrap_or(DEFAULT_MAX_TRACKS),
-            ),
+            None => config_for(width, height, tracks_aimed_for(None, options.max_tracks)),
         };
         options.settings.apply(base)
     };

@@ -217,6 +217,22 @@ impl Preset {
     }
 }
 
+/// Tracks aimed for without a count or a preset.
+pub const DEFAULT_MAX_TRACKS: usize = 100;
+
+/// The tracks aimed for: `max_tracks` when given, else `preset`'s, else
+/// [`DEFAULT_MAX_TRACKS`].
+///
+/// ```
+/// use host_sim::tracking::{tracks_aimed_for, Preset};
+/// assert_eq!(tracks_aimed_for(None, None), 100);
+/// assert_eq!(tracks_aimed_for(Some(Preset::FlowSensor), None), 25);
+/// assert_eq!(tracks_aimed_for(Some(Preset::FlowSensor), Some(40)), 40);
+/// ```
+pub fn tracks_aimed_for(preset: Option<Preset>, max_tracks: Option<usize>) -> usize {
+    max_tracks.unwrap_or_else(|| preset.map_or(DEFAULT_MAX_TRACKS, |p| p.config(None).max_tracks))
+}
+
 /// The library's default settings for `max_tracks` tracks on `width` x `height` frames, with a
 /// refill below 90% of the target and a grid of about one cell per two tracks shaped like the
 /// frame (8 x 6 cells for 100 tracks at 4:3). The library's own default refills below 80 of

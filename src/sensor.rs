@@ -70,7 +70,7 @@ use heapless::Vec;
 
 /// The settings [`FlowSensor::new`] checks, as paths from its [`FlowSensorConfig`], one list
 /// per part: a refusal from the tracker, the fit or the camera is named so.
-const TRACKER_PATHS: [&str; 20] = [
+const TRACKER_PATHS: [&str; 21] = [
     "tracker.lk.window",
     "tracker.lk.max_level",
     "tracker.lk.max_iterations",
@@ -84,6 +84,7 @@ const TRACKER_PATHS: [&str; 20] = [
     "tracker.gates.max_residual",
     "tracker.gates.residual_ratio",
     "tracker.gates.min_correlation",
+    "tracker.gates.least_correlation",
     "tracker.refill.below",
     "tracker.refill.level",
     "tracker.refill.grid.cols",

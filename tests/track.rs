@@ -842,6 +842,8 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
                 max_residual: _,
                 residual_ratio: _,
                 min_correlation: _,
+                // At most 1; from min_correlation up it keeps the gate fixed.
+                least_correlation: _,
             },
         refill:
             Refill {
@@ -972,6 +974,16 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
             with(&|c| c.gates.min_correlation = f32::NAN),
         ),
         (
+            "gates.least_correlation",
+            Bound::AtMost(1),
+            with(&|c| c.gates.least_correlation = 1.5),
+        ),
+        (
+            "gates.least_correlation",
+            Bound::AtMost(1),
+            with(&|c| c.gates.least_correlation = f32::NAN),
+        ),
+        (
             "relocation.max_distance",
             Bound::NonNegative,
             with(&|c| c.relocation.max_distance = -1.0),
@@ -1070,6 +1082,8 @@ fn every_setting_is_refused_by_its_name_when_the_tracker_is_made() {
         }),
         with(&|c| c.gates.min_correlation = 1.0),
         with(&|c| c.gates.min_correlation = f32::NEG_INFINITY),
+        with(&|c| c.gates.least_correlation = 1.0),
+        with(&|c| c.gates.least_correlation = f32::NEG_INFINITY),
         with(&|c| (c.relocation.every, c.relocation.from_age) = (0, 0)),
         with(&|c| (c.relocation.every, c.relocation.from_age) = (u32::MAX, u32::MAX)),
         with(&|c| c.search.constant_velocity = false),

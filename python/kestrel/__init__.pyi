@@ -157,6 +157,7 @@ class Tracker:
         fb_threshold: Optional[float] = None,
         max_residual: Optional[float] = None,
         min_correlation: Optional[float] = None,
+        least_correlation: Optional[float] = None,
         residual_ratio: Optional[float] = None,
         max_relocation: Optional[float] = None,
         relocate_every: Optional[int] = None,

@@ -255,8 +255,8 @@ impl FrameReport {
 ///
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
-///         min_correlation=None, residual_ratio=None, max_relocation=None,
-///         relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None,
+///         min_correlation=None, least_correlation=None, residual_ratio=None,
+///         max_relocation=None, relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None,
 ///         revive_within=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
@@ -270,7 +270,9 @@ impl FrameReport {
 ///     a box-mean pyramid, FAST corners).
 /// The other keywords override the configuration's: LK window (odd, 3-63), coarsest level
 /// (0-7), illumination ("gain_bias" or "plain"), forward-backward gate (px), residual gate
-/// (grey levels), least correlation with the birth patch (-1 to 1), relative residual gate,
+/// (grey levels), least correlation with the birth patch (-1 to 1), the floor that gate is
+/// lowered to on a frame whose tracks' correlations spread widely (-1 to 1, from
+/// min_correlation up the gate is fixed), relative residual gate,
 /// relocation limit (px) and period (frames, 0 = never), the refill's cooldown (frames
 /// during which no track starts near where a young one failed, 0-65535, 0 = none), the
 /// frames within which a moving camera takes a corner out of the view for it to start no track
@@ -393,8 +395,8 @@ impl Tracker {
     #[new]
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
-        min_correlation=None, residual_ratio=None, max_relocation=None, relocate_every=None,
-        refill_cooldown=None, refill_below=None, leaving_within=None, revive_within=None))]
+        min_correlation=None, least_correlation=None, residual_ratio=None, max_relocation=None,
+        relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None, revive_within=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,
@@ -407,6 +409,7 @@ impl Tracker {
         fb_threshold: Option<f64>,
         max_residual: Option<f64>,
         min_correlation: Option<f64>,
+        least_correlation: Option<f64>,
         residual_ratio: Option<f64>,
         max_relocation: Option<f64>,
         relocate_every: Option<i64>,
@@ -439,14 +442,14 @@ impl Tracker {
             }
             other => other.map(|n| n as usize),
         };
-        let correlation = match min_correlation {
+        let correlation = |c: Option<f64>, name: &str| match c {
             Some(c) if !(-1.0..=1.0).contains(&c) => {
-                return Err(value_error(format!(
-                    "min_correlation must be from -1 to 1: got {c}"
-                )))
+                Err(value_error(format!("{name} must be from -1 to 1: got {c}")))
             }
-            other => other.map(|c| c as f32),
+            other => Ok(other.map(|c| c as f32)),
         };
+        let min_correlation = correlation(min_correlation, "min_correlation")?;
+        let least_correlation = correlation(least_correlation, "least_correlation")?;
         let relocate_every = match relocate_every {
             Some(n) if !(0..=1_000_000).contains(&n) => {
                 return Err(value_error(format!(
@@ -478,7 +481,8 @@ impl Tracker {
             max_residual: max_residual
                 .map(|v| settings::non_negative(v, "max_residual"))
                 .transpose()?,
-            min_correlation: correlation,
+            min_correlation,
+            least_correlation,
             residual_ratio: residual_ratio
                 .map(|v| settings::non_negative(v, "residual_ratio"))
                 .transpose()?,
@@ -660,6 +664,7 @@ impl Tracker {
         d.set_item("max_residual", c.gates.max_residual)?;
         d.set_item("residual_ratio", c.gates.residual_ratio)?;
         d.set_item("min_correlation", c.gates.min_correlation)?;
+        d.set_item("least_correlation", c.gates.least_correlation)?;
         d.set_item("relocate_every", c.relocation.every)?;
         d.set_item("max_relocation", c.relocation.max_distance)?;
         d.set_item("leaving_within", c.refill.leaving_within)?;

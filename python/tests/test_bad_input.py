@@ -116,6 +116,7 @@ OTHER_CASES = [
     (lambda: kestrel.Tracker(window=4), ValueError, "window must be odd"),
     (lambda: kestrel.Tracker(fb_threshold=-1.0), ValueError, "fb_threshold must be a finite number >= 0"),
     (lambda: kestrel.Tracker(min_correlation=2.0), ValueError, "min_correlation must be from -1 to 1"),
+    (lambda: kestrel.Tracker(least_correlation=float("nan")), ValueError, "least_correlation must be from -1 to 1"),
     (lambda: kestrel.Tracker(refill_cooldown=-1), ValueError, "refill_cooldown must be 0 to 65535 frames: got -1"),
     (lambda: kestrel.Tracker(refill_cooldown=65536), ValueError, "refill_cooldown must be 0 to 65535"),
     (lambda: kestrel.Tracker(revive_within=-1), ValueError, "revive_within must be 0 to 65535 frames: got -1"),

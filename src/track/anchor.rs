@@ -14,8 +14,9 @@
 //! noise) already decorrelates from itself when sampled a fraction of a pixel off, as every
 //! step of a track samples it at another sub-pixel phase. So the anchor measures that once, at
 //! birth (its patch against itself half a pixel off, across and down), and the gate asks for
-//! the threshold times it ([`Anchor::matches`]): a smooth feature is held to the threshold, a
-//! fine one to what resampling leaves it. Only while the image has not turned or zoomed since
+//! the threshold times it ([`Anchor::likeness`]): a smooth feature is held to the threshold, a
+//! fine one to what resampling leaves it. The threshold itself follows the frame's tracks
+//! (`super::appearance`). Only while the image has not turned or zoomed since
 //! the anchor was taken: on a turning image LK's translation drifts a little every frame, and
 //! the full threshold is what stops it.
 //!
@@ -171,17 +172,13 @@ impl Anchor {
         }
     }
 
-    /// True when the patch of `frame` around `position` correlates with the anchor by at
-    /// least `min_correlation` (zero-mean normalised cross-correlation, `-1..=1`) times what
-    /// resampling alone leaves a correct track of the anchor's texture (see the module
-    /// documentation). A patch without any contrast matches nothing: whatever the feature
-    /// was, it is gone.
-    pub(super) fn matches(
-        &self,
-        frame: &ImageView<'_>,
-        position: Point,
-        min_correlation: f32,
-    ) -> bool {
+    /// How much the patch of `frame` around `position` looks like the anchor: its squared
+    /// correlation with it (zero-mean normalised, negative when the two are anti-correlated)
+    /// over what resampling alone leaves a correct track of the anchor's texture (see the
+    /// module documentation), as Q16. About 1 for a correct track, up to 4 for a fine texture
+    /// sampled at the anchor's own phase, and [`Q16::MIN`] for a patch without any contrast:
+    /// whatever the feature was, it is gone.
+    pub(super) fn likeness(&self, frame: &ImageView<'_>, position: Point) -> Q16 {
         let (now, _) = self.sample(frame, position);
         let Moments {
             covariance,
@@ -189,19 +186,30 @@ impl Anchor {
             var_b,
         } = Moments::of(&self.samples, self.sums, &now);
         if var_a == 0 || var_b == 0 {
-            return false;
+            return Q16::MIN;
         }
         let (cov, va, vb) = (covariance as f32, var_a as f32, var_b as f32);
         // Where the image turned or zoomed since the anchor was taken, LK's translation drifts a
-        // little every frame and this gate is what stops it: there it keeps its threshold.
+        // little every frame and the appearance gate is what stops it: there a track is held
+        // to the plain correlation.
         let expected_sq = if self.turned.is_negligible() {
             self.resampled_sq.max(MIN_EXPECTED_SQ)
         } else {
             1.0
         };
-        // corr >= t  <=>  cov * |cov| >= t * |t| * var_a * var_b, without a square root.
-        let gate = min_correlation * min_correlation.abs() * expected_sq;
-        cov * cov.abs() >= gate * va * vb
+        q16_from_f32(cov * cov.abs() / (va * vb) / expected_sq)
+    }
+
+    /// True when the patch of `frame` around `position` correlates with the anchor by at
+    /// least `min_correlation` (`-1..=1`) times what resampling alone leaves a correct track of
+    /// the anchor's texture: its [`Anchor::likeness`] is at least [`likeness_limit`] of it.
+    pub(super) fn matches(
+        &self,
+        frame: &ImageView<'_>,
+        position: Point,
+        min_correlation: f32,
+    ) -> bool {
+        self.likeness(frame, position) >= likeness_limit(min_correlation)
     }
 
     /// Where the anchor's feature is in `frame`, searched from `start`: the position whose
@@ -277,6 +285,12 @@ pub(super) enum Located {
     Lost,
     /// Too little of the patch in the frame to say.
     OutOfView,
+}
+
+/// The least [`Anchor::likeness`] of a track that correlates with its anchor by `correlation`
+/// (`-1..=1`) times what resampling leaves it: the correlation's square, negative with it.
+pub(super) fn likeness_limit(correlation: f32) -> Q16 {
+    q16_from_f32(correlation * correlation.abs())
 }
 
 /// The most an anchor's image may have zoomed since its birth for [`Anchor::locate`] to search

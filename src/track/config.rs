@@ -1,5 +1,6 @@
 //! Tracker settings, their defaults and their validation.
 
+use super::appearance::AppearanceGate;
 use crate::config_error::bound_number;
 use crate::detect::{Fast, Grid, ShiTomasi};
 use crate::lk::{Illumination, LkParams, LucasKanade, TemplatePlacement, LK_PATHS};
@@ -323,6 +324,74 @@ pub struct Gates {
     /// birth, a track is held to this times what its own patch keeps half a pixel off (at
     /// least half of it), measured at birth. At most 1; -1 or less turns it off.
     pub min_correlation: f32,
+    /// The appearance gate's floor: on a frame whose tracks' likeness to their birth patches
+    /// spreads widely (leaves in the wind, a face that talks, a compressed clip's blocks), the
+    /// gate drops only the tracks that stand out below the others (more than six median
+    /// absolute deviations below the frame's median), and those below this correlation: what
+    /// the frame's tracks look like says what it does to a correct track. While the tracks
+    /// agree, as over still ground that a walker crosses, [`Gates::min_correlation`] holds.
+    /// Measured on the frame's tracks in the same way as the gate, as a squared correlation
+    /// over what resampling leaves each one. At most 1; [`Gates::min_correlation`] or more
+    /// keeps the gate fixed.
+    ///
+    /// ```
+    /// use kestrel::track::{Gates, TrackerConfig};
+    /// # use kestrel::detect::Corner;
+    /// # use kestrel::ImageView;
+    /// # use kestrel::lk::scratch_len;
+    /// # use kestrel::track::{detect_scratch_len, tracker_storage_len, Tracker, TrackerBuffers};
+    /// # const W: usize = 96;
+    /// # const H: usize = 72;
+    /// // Smooth blobs moving 0.5 px a frame to the right, which over ten frames turn into
+    /// // stripes: not at all at the left edge, 80 % of the way at the right edge.
+    /// let frame = |k: usize| -> Vec<u8> {
+    ///     (0..W * H).map(|i| {
+    ///         let (x, y) = ((i % W) as f32, (i / W) as f32);
+    ///         let x = x - 0.5 * k as f32;
+    ///         let blobs = 128.0 + 50.0 * (0.45 * x).sin() * (0.38 * y).cos() + 30.0 * (0.21 * (x + y)).sin();
+    ///         let stripes = 128.0 + 40.0 * (0.9 * x + 0.5 * y).sin();
+    ///         let turned = 0.8 * (k as f32 / 10.0) * (i % W) as f32 / W as f32;
+    ///         ((1.0 - turned) * blobs + turned * stripes) as u8
+    ///     }).collect()
+    /// };
+    /// // The appearance drops over the ten frames, and how far the live tracks are from where
+    /// // the motion took them, with the gates `gates`.
+    /// let run = |gates: Gates| -> (usize, f32) {
+    ///     let mut config = TrackerConfig { max_tracks: 40, gates, ..TrackerConfig::default() };
+    ///     config.refill.below = 0;
+    /// #   let mut storage = vec![0u8; tracker_storage_len(W, H, config.pyramid_levels())];
+    /// #   let mut lk_scratch = vec![0i16; scratch_len(config.lk.window)];
+    /// #   let mut detect_scratch = vec![0i32; detect_scratch_len(W, config.refill.level, 60)];
+    /// #   let mut candidates = vec![Corner::default(); 60];
+    /// #   let buffers = TrackerBuffers { storage: &mut storage, lk_scratch: &mut lk_scratch,
+    /// #       detect_scratch: &mut detect_scratch, candidates: &mut candidates };
+    /// #   let mut tracker = Tracker::<40>::new(config, W, H, buffers).unwrap();
+    ///     // ... a tracker of `config` started on frame 0 and given frames 1 to 10 ...
+    /// #   let frames: Vec<Vec<u8>> = (0..=10).map(frame).collect();
+    /// #   let view = |k: usize| ImageView::packed(&frames[k], W, H).unwrap();
+    /// #   tracker.start(view(0)).unwrap();
+    /// #   let born: Vec<_> = tracker.tracks().iter().map(|t| (t.id, t.position.to_f32())).collect();
+    /// #   let mut dropped = 0;
+    /// #   for k in 1..=10 {
+    /// #       dropped += tracker.process(view(k - 1), view(k), None).unwrap().dropped_appearance;
+    /// #   }
+    /// #   let worst = tracker.tracks().iter().map(|t| {
+    /// #       let (_, (x, y)) = born.iter().find(|(id, _)| *id == t.id).unwrap();
+    /// #       let (nx, ny) = t.position.to_f32();
+    /// #       ((nx - x - 5.0).powi(2) + (ny - y).powi(2)).sqrt()
+    /// #   }).fold(0.0f32, f32::max);
+    /// #   (dropped, worst)
+    /// };
+    /// // A fixed gate drops the tracks whose texture changed most, right as they are.
+    /// let (fixed, fixed_worst) = run(Gates { least_correlation: 0.8, ..Gates::default() });
+    /// // The frame's tracks spread from unchanged to much changed: the gate follows them down.
+    /// let (adaptive, adaptive_worst) = run(Gates::default());
+    /// assert!(fixed >= 10 && adaptive <= fixed / 2);
+    /// // The tracks it keeps are where the motion took them, within 0.3 px (measured: 12 drops,
+    /// // worst 0.18 px, against 6 and 0.27 px).
+    /// assert!(fixed_worst < 0.25 && adaptive_worst < 0.35);
+    /// ```
+    pub least_correlation: f32,
 }
 
 impl Gates {
@@ -334,13 +403,15 @@ impl Gates {
         max_residual: 12.0,
         residual_ratio: 3.0,
         min_correlation: 0.8,
+        least_correlation: 0.6,
     };
 }
 
 impl Default for Gates {
     /// A forward-backward gate of 1 px, checked once in 8 frames and on steps more than
     /// 0.25 px from their prediction; residuals up to 12 grey levels and 3 times the frame's
-    /// median; a correlation of 0.8 with the birth patch.
+    /// median; a correlation of 0.8 with the birth patch, down to 0.6 on a frame whose tracks
+    /// spread widely.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -803,6 +874,17 @@ impl TrackerConfig {
             c if c <= -1.0 => None,
             c => Some(c),
         };
+        let appearance = match (min_correlation, gates.least_correlation) {
+            (_, c) if c.is_nan() || c > 1.0 => {
+                return Err(ConfigError::new(
+                    "gates.least_correlation",
+                    Bound::AtMost(1),
+                ))
+            }
+            (None, _) => None,
+            (Some(min), least) if least >= min => Some(AppearanceGate::new(min, None)),
+            (Some(min), least) => Some(AppearanceGate::new(min, Some(least))),
+        };
         let texture_check = LucasKanade::new(LkParams {
             max_level: 0,
             max_iterations: 1,
@@ -838,6 +920,7 @@ impl TrackerConfig {
             max_residual,
             residual_ratio,
             min_correlation,
+            appearance,
             constant_velocity: search.constant_velocity,
             fine_search,
             fb_every: gates.fb_every,
@@ -883,8 +966,10 @@ pub(super) struct Checked {
     pub max_residual: Option<Q16>,
     /// The relative residual gate; `None` when off.
     pub residual_ratio: Option<Q16>,
-    /// The appearance gate; `None` when off.
+    /// The appearance gate's threshold; `None` when off.
     pub min_correlation: Option<f32>,
+    /// The appearance gate; `None` when off.
+    pub appearance: Option<AppearanceGate>,
     /// Relocation; `None` when off.
     pub relocate: Option<Relocate>,
     /// Whether a track's latest displacement predicts its next.

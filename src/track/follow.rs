@@ -67,6 +67,15 @@ struct Forward {
     fell_back: bool,
 }
 
+/// A track's appearance gate in one frame.
+#[derive(Debug, Clone, Copy)]
+struct AppearanceCheck {
+    /// The least likeness to its anchor it passes with.
+    limit: Q16,
+    /// Its likeness at its step, when the frame's limit needed it.
+    at_step: Option<Q16>,
+}
+
 impl Follow<'_, '_> {
     /// Moves every track that passes the gates into the next frame and drops the others (with
     /// their anchors), keeping the order.
@@ -119,6 +128,7 @@ impl Follow<'_, '_> {
         // revived there.
         let set_aside_dropped = self.checked.revive.is_some() && limits.is_still();
         let moving = limits.centre.is_some_and(moves);
+        let (appearance_limit, likeness) = self.likeness::<N>(tracks, &forward, anchors);
         let mut kept = 0;
         for i in 0..tracks.len() {
             let (Some(&track), Some(fwd), Some(anchor)) =
@@ -127,7 +137,12 @@ impl Follow<'_, '_> {
                 break;
             };
             let max_residual = limits.of_step(&track, &fwd.step, widen);
-            let verdict = self.judge(&track, anchor, fwd, (max_residual, turn, moving), scratch)?;
+            let appearance = appearance_limit.map(|limit| AppearanceCheck {
+                limit,
+                at_step: likeness.get(i).copied(),
+            });
+            let context = (max_residual, turn, moving, appearance);
+            let verdict = self.judge(&track, anchor, fwd, context, scratch)?;
             if let Err(rejection) = verdict {
                 let revivable = set_aside_dropped
                     && rejection != Rejection::OutOfFrame
@@ -351,6 +366,37 @@ impl Follow<'_, '_> {
         })
     }
 
+    /// The frame's appearance limit ([`super::appearance::AppearanceGate::limit`]; `None` when the gate is off)
+    /// and, when it follows the frame's tracks, each track's likeness to its anchor at its
+    /// step, in track order ([`Q16::MIN`] where LK lost it), which the gate then reuses.
+    fn likeness<const N: usize>(
+        &self,
+        tracks: &[Track],
+        steps: &[Forward],
+        anchors: &[Anchor],
+    ) -> (Option<Q16>, Vec<Q16, N>) {
+        let mut likeness = Vec::new();
+        let Some(gate) = self.checked.appearance else {
+            return (None, likeness);
+        };
+        if !gate.follows_frame() {
+            return (Some(gate.limit::<N>(&mut Vec::new())), likeness);
+        }
+        let frame = self.next.base();
+        let mut tracked: Vec<i32, N> = Vec::new();
+        for ((_, fwd), anchor) in tracks.iter().zip(steps).zip(anchors) {
+            let value = match fwd.step.is_tracked() {
+                true => anchor.likeness(&frame, fwd.step.position),
+                false => Q16::MIN,
+            };
+            // At most one a track, and both hold N.
+            let pushed = likeness.push(value).is_ok()
+                && (!fwd.step.is_tracked() || tracked.push(value.to_bits()).is_ok());
+            debug_assert!(pushed, "more tracks than the tracker holds");
+        }
+        (Some(gate.limit(&mut tracked)), likeness)
+    }
+
     /// The residual gates of this frame (see [`ResidualLimits`]).
     fn residual_limits<const N: usize>(
         &self,
@@ -377,7 +423,12 @@ impl Follow<'_, '_> {
         track: &Track,
         anchor: &Anchor,
         fwd: &Forward,
-        (max_residual, turn, moving): (Option<Q16>, Turn, bool),
+        (max_residual, turn, moving, appearance): (
+            Option<Q16>,
+            Turn,
+            bool,
+            Option<AppearanceCheck>,
+        ),
         scratch: &mut [i16],
     ) -> Result<Result<Point, Rejection>, LkError> {
         let step = fwd.step;
@@ -399,8 +450,13 @@ impl Follow<'_, '_> {
                 Err(rejection) => return Ok(Err(rejection)),
             };
         }
-        if let Some(min) = self.checked.min_correlation {
-            if !anchor.matches(&self.next.base(), position, min) {
+        if let Some(check) = appearance {
+            // Measured at the step already, unless relocation moved the track.
+            let likeness = match check.at_step {
+                Some(likeness) if position == step.position => likeness,
+                _ => anchor.likeness(&self.next.base(), position),
+            };
+            if likeness < check.limit {
                 return Ok(Err(Rejection::Appearance));
             }
         }

@@ -11,7 +11,9 @@
 //! 3. drops a track that LK lost, whose residual stands out (above
 //!    [`Gates::max_residual`], or [`Gates::residual_ratio`] times the frame's median, or
 //!    the movers' median for a track on a mover), that no longer looks like the feature it
-//!    was born on ([`Gates::min_correlation`]), or whose way back misses its start by more
+//!    was born on ([`Gates::min_correlation`]; on a frame whose tracks' looks spread widely,
+//!    only the tracks that stand out below the others, down to [`Gates::least_correlation`]),
+//!    or whose way back misses its start by more
 //!    than [`Gates::fb_threshold`]: the cheap gates first, the backward LK last, run on
 //!    every track once in [`Gates::fb_every`] frames and on every doubtful step; every
 //!    [`Relocation::every`] frames (twice as many once its image has turned), a track that
@@ -84,6 +86,7 @@
 //! ```
 
 mod anchor;
+mod appearance;
 mod buffers;
 mod config;
 mod fingerprint;

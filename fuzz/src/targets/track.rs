@@ -170,6 +170,8 @@ fn tracker_config(c: &ConfigInput) -> TrackerConfig {
             max_residual: c.max_residual,
             residual_ratio: c.residual_ratio,
             min_correlation: c.min_correlation,
+            // The detection level's quotient: a fixed appearance gate, or a floor 0.1-0.4 below.
+            least_correlation: c.min_correlation - f32::from((c.detect_level / 10) % 5) * 0.1,
         },
         refill: Refill {
             below: usize::from(c.refill_below % 20),

@@ -80,6 +80,12 @@ pub struct TrackerSettings {
     /// off) [default: 0.8]
     #[arg(long, value_name = "C", value_parser = correlation)]
     pub min_correlation: Option<f32>,
+    /// appearance gate's floor: on a frame whose tracks' correlations with their birth patches
+    /// spread widely (leaves in the wind, a grainy or compressed clip), a track is dropped
+    /// only when its correlation stands far below the others' or below this; from
+    /// --min-correlation up the gate is fixed, -1 to 1 [default: 0.6]
+    #[arg(long, value_name = "C", value_parser = correlation)]
+    pub least_correlation: Option<f32>,
     /// relative residual gate: a track whose residual is more than this many times the
     /// frame's median residual (at least one grey level), and than this many times its own
     /// usual residual once it has made four steps, is dropped, >= 0 [default: 3]
@@ -127,6 +133,7 @@ impl TrackerSettings {
                 fb_threshold: self.fb_threshold.unwrap_or(gates.fb_threshold),
                 max_residual: self.max_residual.unwrap_or(gates.max_residual),
                 min_correlation: self.min_correlation.unwrap_or(gates.min_correlation),
+                least_correlation: self.least_correlation.unwrap_or(gates.least_correlation),
                 residual_ratio: self.residual_ratio.unwrap_or(gates.residual_ratio),
                 ..gates
             },

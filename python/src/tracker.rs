@@ -256,8 +256,8 @@ impl FrameReport {
 /// Tracker(width=None, height=None, *, max_tracks=100, preset=None, window=None,
 ///         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
 ///         min_correlation=None, least_correlation=None, residual_ratio=None,
-///         max_relocation=None, relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None,
-///         revive_within=None)
+///         max_relocation=None, relocate_every=None, refill_cooldown=None,
+///         refill_below=None, leaving_within=None, revive_within=None)
 ///
 /// width, height: the frame size; when None, the first frame's size is taken.
 /// max_tracks: tracks kept at most, 1 to 1000.
@@ -396,7 +396,8 @@ impl Tracker {
     #[pyo3(signature = (width=None, height=None, *, max_tracks=None, preset=None, window=None,
         max_level=None, illumination=None, fb_threshold=None, max_residual=None,
         min_correlation=None, least_correlation=None, residual_ratio=None, max_relocation=None,
-        relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None, revive_within=None))]
+        relocate_every=None, refill_cooldown=None, refill_below=None, leaving_within=None,
+        revive_within=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width: Option<i64>,

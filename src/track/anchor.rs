@@ -15,10 +15,10 @@
 //! step of a track samples it at another sub-pixel phase. So the anchor measures that once, at
 //! birth (its patch against itself half a pixel off, across and down), and the gate asks for
 //! the threshold times it ([`Anchor::likeness`]): a smooth feature is held to the threshold, a
-//! fine one to what resampling leaves it. The threshold itself follows the frame's tracks
-//! (`super::appearance`). Only while the image has not turned or zoomed since
+//! fine one to what resampling leaves it. Only while the image has not turned or zoomed since
 //! the anchor was taken: on a turning image LK's translation drifts a little every frame, and
-//! the full threshold is what stops it.
+//! the full threshold is what stops it. On an unturned image the threshold itself is lowered
+//! on a frame whose tracks spread widely (`super::appearance`).
 //!
 //! The same slack lets a window drift: LK's sub-pixel errors add up over hundreds of frames,
 //! and a patch a pixel or two off its feature still correlates above the gate on smooth

@@ -9,13 +9,13 @@
 //! track. So the gate is the threshold while the frame's tracks agree, and lowered, down to a
 //! floor, when they spread widely: a track is dropped when its likeness is an outlier of the
 //! frame's (more than [`SPREAD_DEVIATIONS`] median absolute deviations below their median), or
-//! below the floor. A walker covering ground tracks is such an outlier, since the rest of the
-//! ground keeps its looks.
+//! below the floor; never one that passes the threshold. A walker covering ground tracks is
+//! such an outlier, since the rest of the ground keeps its looks. Tracks whose image has turned
+//! since their birth keep the threshold (see [`super::anchor`]).
 
 use super::anchor::likeness_limit;
 use super::follow::median;
 use crate::q16::Q16;
-use heapless::Vec;
 
 /// How far below the frame's median likeness, in median absolute deviations, a track's
 /// likeness may lie: six, about four standard deviations of a normal spread.
@@ -37,11 +37,21 @@ pub(super) struct AppearanceGate {
 impl AppearanceGate {
     /// The gate of `min_correlation`, lowered on frames whose tracks spread widely, down to
     /// `least_correlation` (`None`: never lowered).
+    /// A floor of -1 or less leaves only the frame's spread: a patch without contrast, whose
+    /// likeness is [`Q16::MIN`], still fails.
     pub(super) fn new(min_correlation: f32, least_correlation: Option<f32>) -> Self {
-        Self {
-            strict: likeness_limit(min_correlation),
-            least: least_correlation.map(likeness_limit),
-        }
+        let strict = likeness_limit(min_correlation);
+        let least = least_correlation.map(|c| likeness_limit(c.max(-1.0)));
+        debug_assert!(
+            least.is_none_or(|least| least < strict),
+            "a floor at or above the threshold is a fixed gate"
+        );
+        Self { strict, least }
+    }
+
+    /// The threshold's likeness: the limit while the frame's tracks agree.
+    pub(super) fn strict(&self) -> Q16 {
+        self.strict
     }
 
     /// Whether the limit depends on the frame's tracks (see [`AppearanceGate::limit`]).
@@ -49,11 +59,11 @@ impl AppearanceGate {
         self.least.is_some()
     }
 
-    /// The frame's limit, from the likeness of its tracked steps (`likeness`, reordered):
-    /// their median less [`SPREAD_DEVIATIONS`] median absolute deviations, between the floor
-    /// and the threshold. With fewer than [`ENOUGH`] steps, or a gate that does not follow the
-    /// frame, the threshold.
-    pub(super) fn limit<const N: usize>(&self, likeness: &mut Vec<i32, N>) -> Q16 {
+    /// The frame's limit, from the likeness of its tracked steps (`likeness`, Q16 bits,
+    /// reordered): their median less [`SPREAD_DEVIATIONS`] median absolute deviations, raised
+    /// to the floor, lowered to the threshold. With fewer than [`ENOUGH`] steps, or a gate
+    /// that does not follow the frame, the threshold.
+    pub(super) fn limit(&self, likeness: &mut [i32]) -> Q16 {
         let Some(least) = self.least else {
             return self.strict;
         };
@@ -80,7 +90,7 @@ mod tests {
     use super::*;
 
     fn limit(gate: AppearanceGate, likeness: &[f32]) -> f32 {
-        let mut values: Vec<i32, 32> = likeness
+        let mut values: heapless::Vec<i32, 32> = likeness
             .iter()
             .map(|&l| crate::q16::q16_from_f32(l).to_bits())
             .collect();
@@ -109,5 +119,10 @@ mod tests {
         assert!((limit(few, &leaves[..ENOUGH - 1]) - 0.64).abs() < 1e-4);
         // A scene cut: every track anti-correlated, no spread, the floor, which drops them all.
         assert!((limit(few, &[-1.0; 10]) - 0.36).abs() < 1e-4);
+        // Without a floor, a flat frame's tracks (no contrast: the least likeness there is)
+        // still fail.
+        let no_floor = AppearanceGate::new(0.8, Some(f32::NEG_INFINITY));
+        let mut flat = [Q16::MIN.to_bits(); 10];
+        assert!(no_floor.limit(&mut flat) > Q16::MIN);
     }
 }

@@ -128,7 +128,7 @@ impl Follow<'_, '_> {
         // revived there.
         let set_aside_dropped = self.checked.revive.is_some() && limits.is_still();
         let moving = limits.centre.is_some_and(moves);
-        let (appearance_limit, likeness) = self.likeness::<N>(tracks, &forward, anchors);
+        let (appearance_limit, likeness) = self.appearance_limits::<N>(&forward, anchors);
         let mut kept = 0;
         for i in 0..tracks.len() {
             let (Some(&track), Some(fwd), Some(anchor)) =
@@ -138,7 +138,10 @@ impl Follow<'_, '_> {
             };
             let max_residual = limits.of_step(&track, &fwd.step, widen);
             let appearance = appearance_limit.map(|limit| AppearanceCheck {
-                limit,
+                limit: match (anchor.has_turned(), self.checked.appearance) {
+                    (true, Some(gate)) => gate.strict(),
+                    _ => limit,
+                },
                 at_step: likeness.get(i).copied(),
             });
             let context = (max_residual, turn, moving, appearance);
@@ -366,12 +369,14 @@ impl Follow<'_, '_> {
         })
     }
 
-    /// The frame's appearance limit ([`super::appearance::AppearanceGate::limit`]; `None` when the gate is off)
-    /// and, when it follows the frame's tracks, each track's likeness to its anchor at its
-    /// step, in track order ([`Q16::MIN`] where LK lost it), which the gate then reuses.
-    fn likeness<const N: usize>(
+    /// The appearance gate of this frame: the limit of a track whose image has not turned
+    /// (see [`super::appearance`]; `None` when the gate is off) and, when the limit follows the
+    /// frame's tracks, each track's likeness to its anchor at its step, in track order
+    /// ([`Q16::MIN`] where LK lost it), which the gate then reuses. A track whose image has
+    /// turned since its birth is held to the threshold, and its likeness, without the
+    /// resampling allowance, says nothing of the others' ([`Anchor::likeness`]).
+    fn appearance_limits<const N: usize>(
         &self,
-        tracks: &[Track],
         steps: &[Forward],
         anchors: &[Anchor],
     ) -> (Option<Q16>, Vec<Q16, N>) {
@@ -380,21 +385,22 @@ impl Follow<'_, '_> {
             return (None, likeness);
         };
         if !gate.follows_frame() {
-            return (Some(gate.limit::<N>(&mut Vec::new())), likeness);
+            return (Some(gate.strict()), likeness);
         }
         let frame = self.next.base();
-        let mut tracked: Vec<i32, N> = Vec::new();
-        for ((_, fwd), anchor) in tracks.iter().zip(steps).zip(anchors) {
-            let value = match fwd.step.is_tracked() {
+        let mut unturned: Vec<i32, N> = Vec::new();
+        for (fwd, anchor) in steps.iter().zip(anchors) {
+            let tracked = fwd.step.is_tracked();
+            let value = match tracked {
                 true => anchor.likeness(&frame, fwd.step.position),
                 false => Q16::MIN,
             };
             // At most one a track, and both hold N.
             let pushed = likeness.push(value).is_ok()
-                && (!fwd.step.is_tracked() || tracked.push(value.to_bits()).is_ok());
+                && (!tracked || anchor.has_turned() || unturned.push(value.to_bits()).is_ok());
             debug_assert!(pushed, "more tracks than the tracker holds");
         }
-        (Some(gate.limit(&mut tracked)), likeness)
+        (Some(gate.limit(&mut unturned)), likeness)
     }
 
     /// The residual gates of this frame (see [`ResidualLimits`]).

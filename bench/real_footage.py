@@ -69,15 +69,15 @@ STILL_LEVELS = 12
 MOTION_REACH = 5
 
 
-def decode(path, frames):
-    """Up to `frames` grey frames of a video file."""
+def decode(path, frames, colour=False):
+    """Up to `frames` grey frames of a video file (BGR frames with `colour`)."""
     capture = cv2.VideoCapture(path)
     images = []
     while len(images) < frames:
         ok, frame = capture.read()
         if not ok:
             break
-        images.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+        images.append(frame if colour else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
     if not images:
         raise SystemExit(f"{os.path.basename(sys.argv[0])}: {path}: no frames decoded")
     return images

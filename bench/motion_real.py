@@ -40,8 +40,7 @@ of the run becomes background, and its first steps leave a ghost where it stood.
 --colour-reference: the subtractors see the clips' colour frames (registered by the grey ones'
 motion), the detectors the grey frames as before. MOG2 and KNN tell a shadow from a mover by
 its brightness and its colour; on grey frames they have only the brightness, and any pixel
-darker than the background by up to half is taken for a shadow: a walker in dark clothes over
-grass is left out of the reference.
+darker than the background by up to half is taken for a shadow.
 
 The recipe (the OpenCV tutorial's dense flow, made into boxes as is usually done):
 calcOpticalFlowFarneback with the tutorial's parameters (0.5, 3, 15, 3, 5, 1.2), magnitude over

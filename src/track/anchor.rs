@@ -203,6 +203,8 @@ impl Anchor {
     /// True when the patch of `frame` around `position` correlates with the anchor by at
     /// least `min_correlation` (`-1..=1`) times what resampling alone leaves a correct track of
     /// the anchor's texture: its [`Anchor::likeness`] is at least [`likeness_limit`] of it.
+    /// The tests' shorthand; the gates compare likeness with their limits.
+    #[cfg(test)]
     pub(super) fn matches(
         &self,
         frame: &ImageView<'_>,

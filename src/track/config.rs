@@ -922,7 +922,6 @@ impl TrackerConfig {
             fb_limit_sq,
             max_residual,
             residual_ratio,
-            min_correlation,
             appearance,
             constant_velocity: search.constant_velocity,
             fine_search,
@@ -969,8 +968,6 @@ pub(super) struct Checked {
     pub max_residual: Option<Q16>,
     /// The relative residual gate; `None` when off.
     pub residual_ratio: Option<Q16>,
-    /// The appearance gate's threshold; `None` when off.
-    pub min_correlation: Option<f32>,
     /// The appearance gate; `None` when off.
     pub appearance: Option<AppearanceGate>,
     /// Relocation; `None` when off.

@@ -1,6 +1,7 @@
 //! One frame's step for every live track: LK forwards, then the gates, cheapest first.
 
 use super::anchor::{Anchor, Located};
+use super::appearance::AppearanceGate;
 use super::config::{squared_bits, Checked, Relocate, FAILED_YOUNG};
 use super::revive::SET_ASIDE_FROM_AGE;
 use super::turn::{self, Turn};
@@ -76,6 +77,30 @@ struct AppearanceCheck {
     at_step: Option<Q16>,
 }
 
+/// The appearance gate of one frame (see [`super::appearance`]).
+struct FrameAppearance<const N: usize> {
+    gate: AppearanceGate,
+    /// The limit of a track whose image has not turned since its birth.
+    unturned: Q16,
+    /// Each track's likeness to its anchor at its step, in track order ([`Q16::MIN`] where LK
+    /// lost it), when the limit followed the frame's tracks; empty otherwise.
+    likeness: Vec<Q16, N>,
+}
+
+impl<const N: usize> FrameAppearance<N> {
+    /// The check of the `i`-th track, whose anchor is `anchor`: a track whose image has turned
+    /// since its birth is held to the threshold, since there the gate is what stops LK's drift.
+    fn of_track(&self, i: usize, anchor: &Anchor) -> AppearanceCheck {
+        AppearanceCheck {
+            limit: match anchor.has_turned() {
+                true => self.gate.strict(),
+                false => self.unturned,
+            },
+            at_step: self.likeness.get(i).copied(),
+        }
+    }
+}
+
 impl Follow<'_, '_> {
     /// Moves every track that passes the gates into the next frame and drops the others (with
     /// their anchors), keeping the order.
@@ -128,7 +153,7 @@ impl Follow<'_, '_> {
         // revived there.
         let set_aside_dropped = self.checked.revive.is_some() && limits.is_still();
         let moving = limits.centre.is_some_and(moves);
-        let (appearance_limit, likeness) = self.appearance_limits::<N>(&forward, anchors);
+        let appearance = self.appearance::<N>(&forward, anchors);
         let mut kept = 0;
         for i in 0..tracks.len() {
             let (Some(&track), Some(fwd), Some(anchor)) =
@@ -137,14 +162,8 @@ impl Follow<'_, '_> {
                 break;
             };
             let max_residual = limits.of_step(&track, &fwd.step, widen);
-            let appearance = appearance_limit.map(|limit| AppearanceCheck {
-                limit: match (anchor.has_turned(), self.checked.appearance) {
-                    (true, Some(gate)) => gate.strict(),
-                    _ => limit,
-                },
-                at_step: likeness.get(i).copied(),
-            });
-            let context = (max_residual, turn, moving, appearance);
+            let check = appearance.as_ref().map(|a| a.of_track(i, anchor));
+            let context = (max_residual, turn, moving, check);
             let verdict = self.judge(&track, anchor, fwd, context, scratch)?;
             if let Err(rejection) = verdict {
                 let revivable = set_aside_dropped
@@ -369,23 +388,24 @@ impl Follow<'_, '_> {
         })
     }
 
-    /// The appearance gate of this frame: the limit of a track whose image has not turned
-    /// (see [`super::appearance`]; `None` when the gate is off) and, when the limit follows the
-    /// frame's tracks, each track's likeness to its anchor at its step, in track order
-    /// ([`Q16::MIN`] where LK lost it), which the gate then reuses. A track whose image has
-    /// turned since its birth is held to the threshold, and its likeness, without the
-    /// resampling allowance, says nothing of the others' ([`Anchor::likeness`]).
-    fn appearance_limits<const N: usize>(
+    /// The appearance gate of this frame (`None` when the gate is off). When its limit follows
+    /// the frame's tracks, every tracked step's likeness is measured here, and the gate reuses
+    /// it; a turned track's likeness, without the resampling allowance, says nothing of the
+    /// others' ([`Anchor::likeness`]) and is left out of the frame's spread.
+    fn appearance<const N: usize>(
         &self,
         steps: &[Forward],
         anchors: &[Anchor],
-    ) -> (Option<Q16>, Vec<Q16, N>) {
+    ) -> Option<FrameAppearance<N>> {
+        let gate = self.checked.appearance?;
         let mut likeness = Vec::new();
-        let Some(gate) = self.checked.appearance else {
-            return (None, likeness);
-        };
         if !gate.follows_frame() {
-            return (Some(gate.strict()), likeness);
+            let unturned = gate.strict();
+            return Some(FrameAppearance {
+                gate,
+                unturned,
+                likeness,
+            });
         }
         let frame = self.next.base();
         let mut unturned: Vec<i32, N> = Vec::new();
@@ -400,7 +420,12 @@ impl Follow<'_, '_> {
                 && (!tracked || anchor.has_turned() || unturned.push(value.to_bits()).is_ok());
             debug_assert!(pushed, "more tracks than the tracker holds");
         }
-        (Some(gate.limit(&mut unturned)), likeness)
+        let unturned = gate.limit(&mut unturned);
+        Some(FrameAppearance {
+            gate,
+            unturned,
+            likeness,
+        })
     }
 
     /// The residual gates of this frame (see [`ResidualLimits`]).

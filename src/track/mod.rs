@@ -104,7 +104,7 @@ use crate::lk::{scratch_len, LkError};
 use crate::pyramid::{pyramid_storage_len, Pyramid};
 use crate::q16::{Point, Q16};
 use crate::{Bound, ConfigError};
-use anchor::Anchor;
+use anchor::{likeness_limit, Anchor};
 use buffers::StorageParts;
 use config::Checked;
 use fingerprint::Fingerprint;
@@ -898,7 +898,11 @@ fn revive<const N: usize>(
         set_aside.clear();
         return 0;
     };
-    let min_correlation = checked.min_correlation.unwrap_or(-1.0);
+    // The appearance gate's threshold, whatever the frame's spread: a revived track must look
+    // like its birth patch again. Without the gate, any patch with contrast.
+    let least_likeness = checked
+        .appearance
+        .map_or(likeness_limit(-1.0), |gate| gate.strict());
     let spacing = i64::from(config.refill.min_distance) << 16;
     let mut welcome = |track: Track, anchor: &Anchor| {
         let near =
@@ -915,7 +919,7 @@ fn revive<const N: usize>(
     set_aside.revive(
         frame,
         (now, revive.within),
-        (min_correlation, revive.max_shift_sq),
+        (least_likeness, revive.max_shift_sq),
         &mut welcome,
     )
 }

@@ -45,7 +45,8 @@ impl SetAside {
     }
 
     /// Offers `revive` the tracks set aside before frame `now` whose anchor matches `frame`
-    /// at their place again (at least `min_correlation`, the appearance gate) and is located
+    /// at their place again (a likeness of at least `least_likeness`, the appearance gate's
+    /// threshold: [`Anchor::likeness`]) and is located
     /// there within `max_shift_sq` (squared Q16 units), each moved to where it was found;
     /// forgets those set aside more than `within` frames ago, and those `revive` revived or
     /// whose place another track took. Returns how many were revived.
@@ -53,7 +54,7 @@ impl SetAside {
         &mut self,
         frame: &ImageView<'_>,
         (now, within): (u32, u16),
-        (min_correlation, max_shift_sq): (f32, i64),
+        (least_likeness, max_shift_sq): (Q16, i64),
         revive: &mut dyn FnMut(Track, &Anchor) -> Welcome,
     ) -> usize {
         let mut revived = 0usize;
@@ -68,9 +69,8 @@ impl SetAside {
                 Located::At(found) => Some(found),
                 Located::Lost | Located::OutOfView => None,
             };
-            let back = (waited > 0 && anchor.matches(frame, track.position, min_correlation))
-                .then(found)
-                .flatten();
+            let looks_alike = || anchor.likeness(frame, track.position) >= least_likeness;
+            let back = (waited > 0 && looks_alike()).then(found).flatten();
             let revive_at = |at: Point| Track {
                 position: at,
                 previous: at,

@@ -116,3 +116,13 @@ pub fn non_negative(value: f64, name: &str) -> PyResult<f32> {
     }
     Ok(value as f32)
 }
+
+/// A correlation, -1 to 1.
+pub fn correlation(value: f64, name: &str) -> PyResult<f32> {
+    if !(-1.0..=1.0).contains(&value) {
+        return Err(value_error(format!(
+            "{name} must be from -1 to 1: got {value}"
+        )));
+    }
+    Ok(value as f32)
+}

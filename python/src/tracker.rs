@@ -443,14 +443,12 @@ impl Tracker {
             }
             other => other.map(|n| n as usize),
         };
-        let correlation = |c: Option<f64>, name: &str| match c {
-            Some(c) if !(-1.0..=1.0).contains(&c) => {
-                Err(value_error(format!("{name} must be from -1 to 1: got {c}")))
-            }
-            other => Ok(other.map(|c| c as f32)),
-        };
-        let min_correlation = correlation(min_correlation, "min_correlation")?;
-        let least_correlation = correlation(least_correlation, "least_correlation")?;
+        let min_correlation = min_correlation
+            .map(|c| settings::correlation(c, "min_correlation"))
+            .transpose()?;
+        let least_correlation = least_correlation
+            .map(|c| settings::correlation(c, "least_correlation"))
+            .transpose()?;
         let relocate_every = match relocate_every {
             Some(n) if !(0..=1_000_000).contains(&n) => {
                 return Err(value_error(format!(
